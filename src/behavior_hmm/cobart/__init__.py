@@ -1,0 +1,1 @@
+"""cobart subpackage."""

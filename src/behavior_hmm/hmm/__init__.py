@@ -1,0 +1,1 @@
+"""hmm subpackage."""
