@@ -1,1 +1,61 @@
-"""sim subpackage."""
+"""Simulated Khepera-like robot facing one object, as Gymnasium environments.
+
+Two backends share one interface (:class:`KheperaEnv`): ``"mujoco"`` (the MJCF model in
+``assets/khepera.xml``, contact physics) and ``"kinematic"`` (a fast unicycle with the
+same motor lag and wheel mismatch).  Importing this package registers the gymnasium ids
+``behavior_hmm/Khepera-v0`` (MuJoCo) and ``behavior_hmm/KheperaKinematic-v0``.
+
+Examples
+--------
+>>> from behavior_hmm.sim import make_env
+>>> env = make_env("kinematic")
+>>> obs, info = env.reset(seed=0, options={"angle": 90.0, "distance": 0.3})
+>>> [round(float(v), 6) for v in obs]
+[0.3, 0.0, 90.0, 0.0]
+"""
+
+from __future__ import annotations
+
+import gymnasium
+
+from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS
+from behavior_hmm.sim._env import (
+    BACKENDS,
+    DEFAULT_START,
+    ENV_ID,
+    KINEMATIC_ENV_ID,
+    KheperaEnv,
+    make_env,
+    wrap_degrees,
+)
+from behavior_hmm.sim._mujoco import MODEL_XML
+from behavior_hmm.sim._params import RobotParams
+
+__all__ = [
+    "BACKENDS",
+    "COMMAND_CHANNELS",
+    "CONTROL_PERIOD",
+    "DEFAULT_START",
+    "ENV_ID",
+    "KINEMATIC_ENV_ID",
+    "MODEL_XML",
+    "SENSOR_CHANNELS",
+    "KheperaEnv",
+    "RobotParams",
+    "make_env",
+    "wrap_degrees",
+]
+
+
+def _register() -> None:
+    """Register both ids once (re-importing or reloading this module is harmless)."""
+    for env_id, backend in ((ENV_ID, "mujoco"), (KINEMATIC_ENV_ID, "kinematic")):
+        if env_id not in gymnasium.registry:
+            gymnasium.register(
+                id=env_id,
+                entry_point="behavior_hmm.sim._env:KheperaEnv",
+                kwargs={"backend": backend},
+            )
+
+
+_register()

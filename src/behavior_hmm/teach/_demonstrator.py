@@ -203,8 +203,24 @@ class Teacher:
         obs, info = self.env.reset(seed=seed, options=options)
         demo = Demonstration()
         step = 0
-        for phase in phases:
+        done: list[Phase] = []
+        pending = phases
+        while pending:
+            phase = pending[0]
             obs, info, step = self._run_phase(phase, obs, info, step, demo)
+            done.append(phase)
+            # Re-plan from where the robot really is: e.g. turning while touching the
+            # object can push it off, so an approach becomes necessary after all.
+            if behavior not in ("turn-approach", "position"):
+                break
+            true = info["true_observation"]
+            names = {p.name for p in done}
+            pending = [
+                p
+                for p in plan_phases(behavior, true[_ANGLE], true[_DIST], goal_distance)
+                if p.name not in names
+            ]
+        phases = done
         last = phases[-1].name if phases else _default_tag(behavior)
         for _ in range(self.config.stop_steps):
             demo.t.append(step * CONTROL_PERIOD)

@@ -1,0 +1,597 @@
+"""The Behavior-HMM estimator {S, O, A, B, C, π} (thesis §4.2–4.3), in log space.
+
+The motion generators G live in :mod:`behavior_hmm.generators`; this class holds the
+counted tables, plans the most likely observation path to a goal and decodes the
+states along it. States are generic: motion primitives in SBLM, learned behaviors in
+CBLM.
+"""
+
+from __future__ import annotations
+
+import inspect
+import numbers
+from collections import OrderedDict
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from behavior_hmm.errors import (
+    ConfigError,
+    DatasetError,
+    ModelFileError,
+    NotFittedError,
+    UnreachableGoalError,
+)
+from behavior_hmm.hmm._counting import (
+    Counting,
+    count_density,
+    count_emissions,
+    count_transitions,
+    episode_starts,
+    normalize,
+    safe_log,
+)
+from behavior_hmm.hmm._paths import (
+    GoalTree,
+    PathSelfLoops,
+    edge_costs,
+    goal_tree,
+    reversed_graph,
+    walk,
+)
+from behavior_hmm.hmm._plan import Plan, make_segments
+from behavior_hmm.hmm._viterbi import TreeViterbi, emission_decode, viterbi_log
+
+OnImpossible = Literal["raise", "emissions"]
+Category = int | np.integer[Any]  # an observation category index
+
+_COUNTINGS = ("changes", "steps")
+_SELF_LOOP_RULES = ("drop", "keep")
+_ON_IMPOSSIBLE = ("raise", "emissions")
+
+# probability array -> (its count array, ndim, axes sizes as ("N"|"M", ...))
+_TABLES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "A": ("A_counts", ("N", "N")),
+    "B": ("B_counts", ("N", "M")),
+    "C": ("C_counts", ("M", "M")),
+    "pi": ("pi_counts", ("N",)),
+    "start_prob_first": ("start_counts", ("N",)),
+}
+_ROW_SUM_TOL = 1e-6
+_MATCH_TOL = 1e-9
+
+
+class BehaviorHMM:
+    """Behavior-HMM estimated by counting (thesis table 4.3), probabilities in log space.
+
+    Parameters
+    ----------
+    n_states, n_observations
+        Number of states (primitives or behaviors) and observation categories; by
+        default ``max label + 1`` of the training data.
+    counting
+        How A and C are counted. ``"changes"`` (default, the thesis): a transition
+        is counted when the label changes between consecutive control cycles, and one
+        self transition is added to every label seen (``self_transitions=True``), so
+        table 4.3 comes out exactly. ``"steps"``: every pair of consecutive cycles is
+        counted, so ``a_ii ≈ 1 − 1/(mean run length)``.
+    self_transitions
+        Whether self transitions exist at all; ``False`` makes the diagonals of A and
+        C structural zeros (smoothing leaves them zero too).
+    smoothing
+        Add-k pseudo-count added to every cell of A, B, C, π before normalizing
+        (0 = the thesis's plain counting). A row without any count stays all zero
+        (log −inf) when ``smoothing == 0`` and becomes uniform otherwise.
+    path_self_loops
+        ``"drop"`` (default): the most likely path uses ``c_ij / (1 − c_ii)``, the
+        probability that the next *different* category is j; ``"keep"``: ``c_ij``
+        as counted.
+    on_impossible
+        What :meth:`viterbi` and :meth:`plan` do when no state sequence can explain
+        the observations under A: ``"raise"`` (default) raises
+        :class:`~behavior_hmm.errors.UnreachableGoalError`; ``"emissions"`` decodes
+        each element alone as ``argmax_j π_j b_j(o)`` (the state most often seen with
+        that observation) and reports ``log_prob = -inf``.
+
+    Attributes
+    ----------
+    n_states_, n_observations_ : int
+    A_counts_, B_counts_, C_counts_ : ndarray of int64
+        Raw counts, shapes (N, N), (N, M), (M, M).
+    pi_counts_, start_counts_ : ndarray of int64, shape (N,)
+        Control cycles spent in each state; episodes starting in each state.
+    log_A_, log_B_, log_C_, log_pi_ : ndarray of float64
+        Log probabilities; ``-inf`` for impossible entries, never NaN.
+    start_prob_first_ : ndarray of float64, shape (N,)
+        Distribution of the first state of an episode (for reference; π is the
+        density, which is the right prior for a plan made mid-behavior).
+
+    Examples
+    --------
+    >>> hmm = BehaviorHMM().fit([0, 0, 1, 1], [0, 1, 2, 2])
+    >>> hmm.plan(0, 2).observations
+    (0, 1, 2)
+    """
+
+    _PLAN_CACHE_SIZE = 4096
+
+    def __init__(
+        self,
+        *,
+        n_states: int | None = None,
+        n_observations: int | None = None,
+        counting: Counting = "changes",
+        self_transitions: bool = True,
+        smoothing: float = 0.0,
+        path_self_loops: PathSelfLoops = "drop",
+        on_impossible: OnImpossible = "raise",
+    ) -> None:
+        self.n_states = n_states
+        self.n_observations = n_observations
+        self.counting = counting
+        self.self_transitions = self_transitions
+        self.smoothing = smoothing
+        self.path_self_loops = path_self_loops
+        self.on_impossible = on_impossible
+
+    # ------------------------------------------------------------------ params
+    @classmethod
+    def _param_names(cls) -> list[str]:
+        sig = inspect.signature(cls.__init__)
+        return [p for p in sig.parameters if p != "self"]
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Constructor parameters as a dict (scikit-learn convention)."""
+        return {name: getattr(self, name) for name in self._param_names()}
+
+    def set_params(self, **params: Any) -> BehaviorHMM:
+        """Set constructor parameters; returns ``self``. Clears the planning caches."""
+        names = self._param_names()
+        for key, value in params.items():
+            if key not in names:
+                raise ConfigError(f"unknown BehaviorHMM parameter {key!r}; known: {names}")
+            setattr(self, key, value)
+        if hasattr(self, "log_A_"):
+            self._reset_caches()
+        return self
+
+    @property
+    def params(self) -> dict[str, Any]:
+        """JSON-ready constructor parameters, for the model file (see :meth:`from_arrays`)."""
+        return self.get_params()
+
+    def __repr__(self) -> str:
+        defaults = {
+            n: p.default for n, p in inspect.signature(type(self).__init__).parameters.items()
+        }
+        args = [f"{k}={v!r}" for k, v in self.get_params().items() if v != defaults.get(k)]
+        return f"{type(self).__name__}({', '.join(args)})"
+
+    def _validate_params(self) -> None:
+        for name in ("n_states", "n_observations"):
+            value = getattr(self, name)
+            if value is not None and (
+                isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1
+            ):
+                raise ConfigError(f"{name} must be None or an integer >= 1, got {value!r}")
+        if self.counting not in _COUNTINGS:
+            raise ConfigError(f"counting must be one of {_COUNTINGS}, got {self.counting!r}")
+        if not isinstance(self.self_transitions, bool | np.bool_):
+            raise ConfigError(f"self_transitions must be a bool, got {self.self_transitions!r}")
+        s = self.smoothing
+        bad_type = isinstance(s, bool) or not isinstance(s, numbers.Real)
+        if bad_type or not (np.isfinite(s) and s >= 0):
+            raise ConfigError(f"smoothing must be a finite number >= 0, got {s!r}")
+        if self.path_self_loops not in _SELF_LOOP_RULES:
+            raise ConfigError(
+                f"path_self_loops must be one of {_SELF_LOOP_RULES}, got {self.path_self_loops!r}"
+            )
+        if self.on_impossible not in _ON_IMPOSSIBLE:
+            raise ConfigError(
+                f"on_impossible must be one of {_ON_IMPOSSIBLE}, got {self.on_impossible!r}"
+            )
+
+    # --------------------------------------------------------------------- fit
+    def fit(
+        self, states: ArrayLike, observations: ArrayLike, lengths: ArrayLike | None = None
+    ) -> BehaviorHMM:
+        """Count A, B, C, π from labelled control cycles.
+
+        Parameters
+        ----------
+        states
+            State index per control cycle (motion primitive id, or behavior id in CBLM).
+        observations
+            Observation category index per control cycle, same length.
+        lengths
+            Control cycles per episode, summing to the number of samples; transitions
+            are never counted across episodes. ``None`` = one episode.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        s = _as_labels(states, "states")
+        o = _as_labels(observations, "observations")
+        if s.size != o.size:
+            raise DatasetError(
+                f"states has {s.size} samples but observations has {o.size}", field="observations"
+            )
+        if s.size == 0:
+            raise DatasetError("no samples to fit a Behavior-HMM on", field="states")
+        lens = _as_lengths(lengths, s.size)
+        n = _n_labels(s, self.n_states, "states", "n_states")
+        m = _n_labels(o, self.n_observations, "observations", "n_observations")
+
+        kw: dict[str, Any] = {"counting": self.counting, "self_transitions": self.self_transitions}
+        counts = {
+            "A": count_transitions(s, n, lens, **kw),
+            "B": count_emissions(s, o, n, m),
+            "C": count_transitions(o, m, lens, **kw),
+            "pi": count_density(s, n),
+            "start_prob_first": count_density(s[episode_starts(lens)], n),
+        }
+        probs = {key: self._normalize(key, c) for key, c in counts.items()}
+        self._set_tables(counts, probs)
+        return self
+
+    def _normalize(self, key: str, counts: NDArray[np.generic]) -> NDArray[np.float64]:
+        structural = key in ("A", "C") and not self.self_transitions
+        return normalize(counts, float(self.smoothing), zero_diagonal=structural)
+
+    def _set_tables(
+        self, counts: Mapping[str, NDArray[np.generic]], probs: Mapping[str, NDArray[np.float64]]
+    ) -> None:
+        self.n_states_ = int(probs["A"].shape[0])
+        self.n_observations_ = int(probs["B"].shape[1])
+        self.A_counts_ = np.array(counts["A"], dtype=np.int64)
+        self.B_counts_ = np.array(counts["B"], dtype=np.int64)
+        self.C_counts_ = np.array(counts["C"], dtype=np.int64)
+        self.pi_counts_ = np.array(counts["pi"], dtype=np.int64)
+        self.start_counts_ = np.array(counts["start_prob_first"], dtype=np.int64)
+        self.log_A_ = safe_log(np.array(probs["A"], dtype=np.float64))
+        self.log_B_ = safe_log(np.array(probs["B"], dtype=np.float64))
+        self.log_C_ = safe_log(np.array(probs["C"], dtype=np.float64))
+        self.log_pi_ = safe_log(np.array(probs["pi"], dtype=np.float64))
+        self.start_prob_first_ = np.array(probs["start_prob_first"], dtype=np.float64)
+        self._reset_caches()
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "log_A_"):
+            raise NotFittedError("this BehaviorHMM is not fitted yet; call fit() or from_arrays()")
+
+    def _reset_caches(self) -> None:
+        self._cache_params: tuple[str, str] = (self.path_self_loops, self.on_impossible)
+        self._graph_rev: Any = None
+        self._trees: dict[int, GoalTree] = {}
+        self._decoders: dict[int, TreeViterbi] = {}
+        self._plans: OrderedDict[tuple[Any, Any], Plan] = OrderedDict()
+
+    # ---------------------------------------------------------------- planning
+    def _check_observation(self, value: Any, name: str) -> int:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+            raise ConfigError(f"{name} must be an observation category index, got {value!r}")
+        v = int(value)
+        if not 0 <= v < self.n_observations_:
+            raise ConfigError(
+                f"{name}={v} is not an observation category of this model "
+                f"(0 to {self.n_observations_ - 1})"
+            )
+        return v
+
+    def _tree(self, goal: int) -> GoalTree:
+        tree = self._trees.get(goal)
+        if tree is None:
+            if self._graph_rev is None:
+                self._graph_rev = reversed_graph(edge_costs(self.log_C_, self.path_self_loops))
+            tree = goal_tree(self._graph_rev, goal)
+            self._trees[goal] = tree
+        return tree
+
+    def _path(self, current: int, goal: int) -> tuple[list[int], float]:
+        tree = self._tree(goal)
+        cost = float(tree.cost[current])
+        if not np.isfinite(cost):
+            raise UnreachableGoalError(
+                f"goal observation category {goal} cannot be reached from category {current}: "
+                "no chain of observed transitions leads there"
+            )
+        return walk(tree, current), 0.0 - cost
+
+    def most_likely_path(self, o_current: Category, o_goal: Category) -> tuple[int, ...]:
+        """Most likely observation path from ``o_current`` to ``o_goal`` (both included).
+
+        Dijkstra on edge costs ``−log c_ij`` (see ``path_self_loops``); the tree
+        towards each goal is computed once and cached.
+
+        Raises
+        ------
+        UnreachableGoalError
+            No chain of observed transitions leads from ``o_current`` to ``o_goal``.
+        """
+        self._check_fitted()
+        self._sync_caches()
+        c = self._check_observation(o_current, "o_current")
+        g = self._check_observation(o_goal, "o_goal")
+        return tuple(self._path(c, g)[0])
+
+    def _sync_caches(self) -> None:
+        if self._cache_params != (self.path_self_loops, self.on_impossible):
+            self._reset_caches()
+
+    def viterbi(
+        self, observations: ArrayLike, *, on_impossible: OnImpossible | None = None
+    ) -> tuple[NDArray[np.int64], float]:
+        """Most likely state sequence for an observation sequence (log space).
+
+        Parameters
+        ----------
+        observations
+            Observation category per element, shape (T,), T ≥ 1.
+        on_impossible
+            Overrides the estimator's ``on_impossible`` for this call.
+
+        Returns
+        -------
+        states : ndarray of int64, shape (T,)
+        log_prob : float
+            ``log P(states, observations)`` under π, A, B; ``-inf`` if the emission
+            fallback was used.
+
+        Raises
+        ------
+        UnreachableGoalError
+            Every state sequence is impossible (and the fallback is off or cannot help).
+        """
+        self._check_fitted()
+        obs = _as_labels(observations, "observations")
+        if obs.size == 0:
+            raise DatasetError("cannot decode an empty observation sequence", field="observations")
+        if obs.max() >= self.n_observations_:
+            row = int(np.argmax(obs >= self.n_observations_))
+            raise DatasetError(
+                f"observation category {int(obs[row])} does not exist in this model "
+                f"({self.n_observations_} categories)",
+                row=row,
+                field="observations",
+            )
+        rule = self.on_impossible if on_impossible is None else on_impossible
+        if rule not in _ON_IMPOSSIBLE:
+            raise ConfigError(f"on_impossible must be one of {_ON_IMPOSSIBLE}, got {rule!r}")
+        states, log_prob, _ = self._decode(obs, rule)
+        return states, log_prob
+
+    def _decode(
+        self, obs: NDArray[np.int64], rule: str
+    ) -> tuple[NDArray[np.int64], float, Literal["viterbi", "emissions"]]:
+        states, log_prob, dead = viterbi_log(self.log_pi_, self.log_A_, self.log_B_, obs)
+        if dead < 0:
+            return states, log_prob, "viterbi"
+        if rule == "emissions":
+            states, bad = emission_decode(self.log_pi_, self.log_B_, obs)
+            if bad < 0:
+                return states, float("-inf"), "emissions"
+            raise UnreachableGoalError(
+                f"observation category {int(obs[bad])} (position {bad}) was never seen with "
+                "any state, so no state can be decoded for it"
+            )
+        raise UnreachableGoalError(
+            f"no state sequence can produce these observations: every sequence becomes "
+            f"impossible at position {dead} (observation category {int(obs[dead])}); fit with "
+            "smoothing > 0 or use on_impossible='emissions'"
+        )
+
+    def plan(self, o_current: Category, o_goal: Category) -> Plan:
+        """Plan from the current to the goal observation category (thesis Algorithm 1).
+
+        Most likely observation path, then Viterbi states along it, collapsed into
+        segments with their exit observations. Per goal, the shortest-path tree and
+        the Viterbi messages of its nodes are computed once (all paths to a goal
+        share suffixes); whole plans are cached per ``(o_current, o_goal)`` (LRU),
+        so a per-cycle re-plan is a dict lookup.
+
+        Raises
+        ------
+        UnreachableGoalError
+            The goal cannot be reached, or no state sequence explains the path (with
+            ``on_impossible="raise"``). Raised before anything is executed.
+        """
+        try:
+            plans = self._plans
+        except AttributeError:
+            raise NotFittedError(
+                "this BehaviorHMM is not fitted yet; call fit() or from_arrays()"
+            ) from None
+        if self._cache_params != (self.path_self_loops, self.on_impossible):
+            self._reset_caches()
+            plans = self._plans
+        key = (o_current, o_goal)
+        cached = plans.get(key)
+        if cached is not None:
+            plans.move_to_end(key)
+            return cached
+        c = self._check_observation(o_current, "o_current")
+        g = self._check_observation(o_goal, "o_goal")
+        path, path_log_prob = self._path(c, g)
+        decoder = self._decoders.get(g)
+        if decoder is None:
+            tree = self._trees[g]
+            decoder = TreeViterbi(tree.next_node, g, self.log_pi_, self.log_A_, self.log_B_)
+            self._decoders[g] = decoder
+        state_list, log_prob = decoder.decode(path)
+        decoding: Literal["viterbi", "emissions"] = "viterbi"
+        if not state_list:  # impossible: the forward pass explains where, or falls back
+            states_arr, log_prob, decoding = self._decode(
+                np.asarray(path, dtype=np.int64), self.on_impossible
+            )
+            state_list = states_arr.tolist()
+        observations = tuple(path)
+        states = tuple(state_list)
+        result = Plan(
+            observations=observations,
+            states=states,
+            segments=make_segments(observations, states),
+            path_log_prob=path_log_prob,
+            log_prob=log_prob,
+            decoding=decoding,
+        )
+        plans[(c, g)] = result
+        if len(plans) > self._PLAN_CACHE_SIZE:
+            plans.popitem(last=False)
+        return result
+
+    # ------------------------------------------------------------ persistence
+    def to_arrays(self) -> dict[str, NDArray[Any]]:
+        """Learned tables as plain arrays for the model file (no pickle).
+
+        Keys: probabilities ``A``, ``B``, ``C``, ``pi``, ``start_prob_first``
+        (float64, in [0, 1], rows summing to 1 or all zero) and the raw counts
+        ``A_counts``, ``B_counts``, ``C_counts``, ``pi_counts``, ``start_counts``
+        (int64). Save :attr:`params` beside them.
+        """
+        self._check_fitted()
+        return {
+            "A": np.exp(self.log_A_),
+            "B": np.exp(self.log_B_),
+            "C": np.exp(self.log_C_),
+            "pi": np.exp(self.log_pi_),
+            "start_prob_first": self.start_prob_first_.copy(),
+            "A_counts": self.A_counts_.copy(),
+            "B_counts": self.B_counts_.copy(),
+            "C_counts": self.C_counts_.copy(),
+            "pi_counts": self.pi_counts_.copy(),
+            "start_counts": self.start_counts_.copy(),
+        }
+
+    @classmethod
+    def from_arrays(
+        cls, arrays: Mapping[str, NDArray[Any]], params: Mapping[str, Any]
+    ) -> BehaviorHMM:
+        """Rebuild a fitted model from :meth:`to_arrays` output and :attr:`params`.
+
+        Every array is checked: presence, dtype, shape consistency, finiteness,
+        probabilities in [0, 1] with rows summing to 1 (or all zero), non-negative
+        counts, and probabilities equal to the normalized counts.
+
+        Raises
+        ------
+        ModelFileError
+            Anything is missing, malformed or inconsistent.
+        """
+        names = cls._param_names()
+        unknown = sorted(set(params) - set(names))
+        if unknown:
+            raise ModelFileError(f"unknown Behavior-HMM parameters in model file: {unknown}")
+        model = cls(**dict(params))
+        try:
+            model._validate_params()
+        except ConfigError as err:
+            raise ModelFileError(f"invalid Behavior-HMM parameters in model file: {err}") from err
+        probs, counts = _checked_arrays(arrays)
+        n, m = probs["B"].shape
+        for name, size in (("n_states", n), ("n_observations", m)):
+            declared = getattr(model, name)
+            if declared is not None and declared != size:
+                raise ModelFileError(
+                    f"{name}={declared} in the parameters but the arrays have {size}"
+                )
+        for key, p in probs.items():
+            expected = model._normalize(key, counts[key])
+            if not np.allclose(p, expected, rtol=0.0, atol=_MATCH_TOL):
+                raise ModelFileError(
+                    f"array '{key}' does not match the normalized '{_TABLES[key][0]}'"
+                )
+        model._set_tables(counts, probs)
+        return model
+
+
+# ---------------------------------------------------------------- validation
+def _as_labels(values: ArrayLike, name: str) -> NDArray[np.int64]:
+    a = np.asarray(values)
+    if a.ndim != 1:
+        raise DatasetError(f"{name} must be a 1-D sequence, got shape {a.shape}", field=name)
+    if a.size == 0:
+        return a.astype(np.int64)
+    if a.dtype.kind not in "iu":
+        raise DatasetError(f"{name} must hold integer labels, got dtype {a.dtype}", field=name)
+    if a.min() < 0:
+        row = int(np.argmax(a < 0))
+        raise DatasetError(f"negative label {int(a[row])}", row=row, field=name)
+    return a.astype(np.int64, copy=False)
+
+
+def _as_lengths(lengths: ArrayLike | None, n_samples: int) -> NDArray[np.int64]:
+    if lengths is None:
+        return np.array([n_samples], dtype=np.int64)
+    lens = np.asarray(lengths)
+    if lens.ndim != 1 or lens.size == 0 or lens.dtype.kind not in "iu":
+        raise DatasetError("lengths must be a non-empty 1-D sequence of integers", field="lengths")
+    if lens.min() < 1:
+        episode = int(np.argmax(lens < 1))
+        raise DatasetError(f"empty episode (length {int(lens[episode])})", episode=episode)
+    if int(lens.sum()) != n_samples:
+        raise DatasetError(
+            f"lengths sum to {int(lens.sum())} but there are {n_samples} samples", field="lengths"
+        )
+    return lens.astype(np.int64, copy=False)
+
+
+def _n_labels(labels: NDArray[np.int64], declared: int | None, field: str, param: str) -> int:
+    top = int(labels.max())
+    if declared is None:
+        return top + 1
+    if top >= declared:
+        row = int(np.argmax(labels >= declared))
+        raise DatasetError(f"label {top} does not fit {param}={declared}", row=row, field=field)
+    return int(declared)
+
+
+def _checked_arrays(
+    arrays: Mapping[str, Any],
+) -> tuple[dict[str, NDArray[np.float64]], dict[str, NDArray[np.int64]]]:
+    expected = set(_TABLES) | {c for c, _ in _TABLES.values()}
+    missing = sorted(expected - set(arrays))
+    if missing:
+        raise ModelFileError(f"Behavior-HMM arrays missing from model file: {missing}")
+    extra = sorted(set(arrays) - expected)
+    if extra:
+        raise ModelFileError(f"unexpected Behavior-HMM arrays in model file: {extra}")
+    for key in expected:
+        if not isinstance(arrays[key], np.ndarray):
+            raise ModelFileError(f"Behavior-HMM array '{key}' is not an array")
+    a_shape = arrays["A"].shape
+    b_shape = arrays["B"].shape
+    if len(a_shape) != 2 or len(b_shape) != 2:
+        raise ModelFileError(f"arrays 'A' and 'B' must be 2-D, got shapes {a_shape}, {b_shape}")
+    sizes = {"N": b_shape[0], "M": b_shape[1]}
+    if sizes["N"] < 1 or sizes["M"] < 1:
+        raise ModelFileError(f"array 'B' has an empty shape {b_shape}")
+    probs: dict[str, NDArray[np.float64]] = {}
+    counts: dict[str, NDArray[np.int64]] = {}
+    for key, (ckey, axes) in _TABLES.items():
+        shape = tuple(sizes[a] for a in axes)
+        p = arrays[key]
+        c = arrays[ckey]
+        for name, arr in ((key, p), (ckey, c)):
+            if arr.shape != shape:
+                raise ModelFileError(f"array '{name}' has shape {arr.shape}, expected {shape}")
+        if p.dtype.kind != "f":
+            raise ModelFileError(f"array '{key}' must be floating point, got {p.dtype}")
+        if c.dtype.kind not in "iu":
+            raise ModelFileError(f"array '{ckey}' must hold integer counts, got {c.dtype}")
+        if not np.all(np.isfinite(p)):
+            raise ModelFileError(f"array '{key}' contains NaN or infinite values")
+        if p.min() < 0.0 or p.max() > 1.0:
+            raise ModelFileError(f"array '{key}' has probabilities outside [0, 1]")
+        sums = p.sum(axis=-1)
+        ok = (np.abs(sums - 1.0) <= _ROW_SUM_TOL) | (np.all(p == 0.0, axis=-1))
+        if not np.all(ok):
+            raise ModelFileError(f"array '{key}' has rows that sum to neither 1 nor 0")
+        if c.min() < 0:
+            raise ModelFileError(f"array '{ckey}' has negative counts")
+        probs[key] = p.astype(np.float64)
+        counts[ckey] = c.astype(np.int64)
+    return probs, {key: counts[ckey] for key, (ckey, _) in _TABLES.items()}
