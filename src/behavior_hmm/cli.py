@@ -189,22 +189,23 @@ def _print_summary(path: Path, summary: dict[str, Any]) -> None:
     from rich.table import Table
 
     console = Console()
-    head = {k: v for k, v in summary.items() if not isinstance(v, dict)}
     console.print(f"[bold]{path}[/bold]")
-    for key, value in head.items():
-        console.print(f"  {key}: {value}")
-    for key, value in summary.items():
-        if isinstance(value, dict) and value and all(isinstance(v, dict) for v in value.values()):
-            table = Table(title=key)
-            columns = sorted({c for v in value.values() for c in v})
-            table.add_column("channel")
-            for c in columns:
-                table.add_column(c)
-            for name, stats in value.items():
-                table.add_row(name, *[_fmt(stats.get(c)) for c in columns])
-            console.print(table)
-        elif isinstance(value, dict):
-            console.print(f"  {key}: {value}")
+    meta = summary.get("metadata", {})
+    for key in ("behavior", "simulator", "seed", "noise"):
+        if key in meta:
+            console.print(f"  {key}: {meta[key]}")
+    console.print(f"  episodes: {summary['episodes']}, samples: {summary['samples']}")
+    for key in ("samples_per_episode", "duration_s"):
+        stats = summary.get(key, {})
+        console.print(f"  {key}: " + ", ".join(f"{k} {_fmt(v)}" for k, v in stats.items()))
+    if summary.get("behaviors"):
+        console.print(f"  behaviors: {', '.join(summary['behaviors'])}")
+    table = Table(title="channels")
+    for col in ("channel", "unit", "min", "max"):
+        table.add_column(col)
+    for name, stats in summary.get("channels", {}).items():
+        table.add_row(name, str(stats.get("unit", "")), _fmt(stats["min"]), _fmt(stats["max"]))
+    console.print(table)
 
 
 def _fmt(value: Any) -> str:

@@ -1,4 +1,11 @@
-"""Datasets: schema, Parquet/CSV I/O, validation, normalization, low-pass filter."""
+"""Datasets: schema, Parquet/CSV I/O, validation, normalization, low-pass filter.
+
+A :class:`Dataset` holds all demonstrations of a behavior as column arrays plus
+``lengths`` (hmmlearn style) and JSON metadata; it is validated on construction.
+:func:`read` / :func:`write` handle the Parquet format, :func:`import_csv` users'
+own logs. :class:`SignalPipeline` filters and normalizes channels identically
+for training (offline) and at run time (online, one sample at a time).
+"""
 
 from behavior_hmm.data._channels import (
     ANGLE_TOLERANCE_DEG,
@@ -11,15 +18,61 @@ from behavior_hmm.data._channels import (
     UNITS,
     noise_std,
 )
+from behavior_hmm.data._csv import import_csv
+from behavior_hmm.data._dataset import NUMERIC_CHANNELS, Dataset, Episode
+from behavior_hmm.data._filter import (
+    ANGLE_CHANNELS,
+    DEFAULT_CUTOFF_HZ,
+    LowPassFilter,
+    OnlineFilter,
+    OnlinePipeline,
+    SignalPipeline,
+)
+from behavior_hmm.data._normalize import CommandScaler, Normalizer
+from behavior_hmm.data._parquet import METADATA_KEY, read, write
+from behavior_hmm.data._summary import summarize
+from behavior_hmm.data._units import UNIT_FACTORS, wrap_degrees
+from behavior_hmm.data._validate import (
+    BEHAVIOR_NAME_PATTERN,
+    OPTIONAL_COLUMNS,
+    REQUIRED_COLUMNS,
+    SCHEMA_VERSION,
+    VALUE_BOUNDS,
+    validate,
+)
 
 __all__ = [
+    "ANGLE_CHANNELS",
     "ANGLE_TOLERANCE_DEG",
     "ARENA_MAX_DISTANCE",
+    "BEHAVIOR_NAME_PATTERN",
     "COMMAND_CHANNELS",
     "CONTROL_PERIOD",
+    "DEFAULT_CUTOFF_HZ",
     "DISTANCE_TOLERANCE_M",
+    "METADATA_KEY",
+    "NUMERIC_CHANNELS",
+    "OPTIONAL_COLUMNS",
+    "REQUIRED_COLUMNS",
+    "SCHEMA_VERSION",
     "SENSOR_CHANNELS",
     "SENSOR_RANGES",
     "UNITS",
+    "UNIT_FACTORS",
+    "VALUE_BOUNDS",
+    "CommandScaler",
+    "Dataset",
+    "Episode",
+    "LowPassFilter",
+    "Normalizer",
+    "OnlineFilter",
+    "OnlinePipeline",
+    "SignalPipeline",
+    "import_csv",
     "noise_std",
+    "read",
+    "summarize",
+    "validate",
+    "wrap_degrees",
+    "write",
 ]

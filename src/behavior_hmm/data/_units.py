@@ -1,0 +1,59 @@
+"""Unit conversion for imported logs, and angle wrapping into (−180, 180]."""
+
+from __future__ import annotations
+
+import math
+from typing import Final
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from behavior_hmm.errors import ConfigError
+
+_RPM: Final[float] = 2.0 * math.pi / 60.0
+_DEG: Final[float] = math.pi / 180.0
+
+#: For each column, the units ``import_csv`` accepts and the factor that converts
+#: a value in that unit into the column's canonical unit (``UNITS``).
+UNIT_FACTORS: Final[dict[str, dict[str, float]]] = {
+    "t": {"s": 1.0, "ms": 1e-3},
+    "distance": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
+    "linear_velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
+    "angle": {"deg": 1.0, "rad": 180.0 / math.pi},
+    "angular_velocity": {"deg/s": 1.0, "rad/s": 180.0 / math.pi},
+    "left": {"rad/s": 1.0, "rpm": _RPM, "deg/s": _DEG},
+    "right": {"rad/s": 1.0, "rpm": _RPM, "deg/s": _DEG},
+}
+
+
+def unit_factor(column: str, unit: str) -> float:
+    """Factor converting ``column`` values given in ``unit`` into the canonical unit.
+
+    Raises
+    ------
+    ConfigError
+        If the column has no units or the unit is not one it accepts.
+    """
+    if column not in UNIT_FACTORS:
+        known = ", ".join(UNIT_FACTORS)
+        raise ConfigError(f"column '{column}' takes no unit (columns with units: {known})")
+    factors = UNIT_FACTORS[column]
+    if unit not in factors:
+        raise ConfigError(
+            f"unknown unit '{unit}' for column '{column}' (choose one of: {', '.join(factors)})"
+        )
+    return factors[unit]
+
+
+def wrap_degrees(angle: ArrayLike) -> NDArray[np.float64]:
+    """Wrap angles (degrees) into (−180, 180]; 180 stays 180, −180 becomes 180."""
+    a = np.asarray(angle, dtype=np.float64)
+    return a - 360.0 * np.ceil((a - 180.0) / 360.0)
+
+
+def wrap_degree(angle: float) -> float:
+    """Scalar twin of :func:`wrap_degrees` with bit-identical results (NaN stays NaN)."""
+    turns = (angle - 180.0) / 360.0
+    if not math.isfinite(turns):
+        return math.nan
+    return angle - 360.0 * math.ceil(turns)
