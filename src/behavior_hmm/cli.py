@@ -46,7 +46,11 @@ def _user_errors(func: F) -> F:
         try:
             return func(*args, **kwargs)
         except BehaviorHMMError as err:
-            typer.echo(f"error: {err}", err=True)
+            typer.echo(f"error: {' '.join(str(err).split())}", err=True)
+            raise typer.Exit(code=2) from None
+        except OSError as err:  # a path we cannot read or write: the user's to fix
+            where = f"{err.filename}: " if err.filename else ""
+            typer.echo(f"error: {where}{err.strerror or err}", err=True)
             raise typer.Exit(code=2) from None
         except KeyboardInterrupt:
             typer.echo("interrupted", err=True)
@@ -83,15 +87,16 @@ def _progress() -> Any:
 
 def _collect_with_progress(
     behavior: str,
-    starts: list[dict[str, float]] | None,
+    starts: list[dict[str, float]],
     sim: str,
     seed: int,
     noise: float,
 ) -> Any:
+    """Run the teacher from every start behind a progress bar (one final line when not a TTY)."""
     from behavior_hmm.teach import collect
 
     with _progress() as bar:
-        task = bar.add_task(f"collect {behavior} ({sim})", total=None)
+        task = bar.add_task(f"collect {behavior} ({sim})", total=len(starts))
 
         def report(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
@@ -111,19 +116,57 @@ def collect(
         typer.Option(help="CSV of starts (columns angle and/or distance); default: DESIGN §6 grid"),
     ] = None,
     sim: Annotated[str, typer.Option(help="Simulator backend: mujoco or kinematic")] = "mujoco",
-    seed: Annotated[int, typer.Option(help="Seed of the sensor-noise draws")] = 0,
+    seed: Annotated[
+        int, typer.Option(help="Seed (>= 0); episode i draws its sensor noise with SEED+i")
+    ] = 0,
     noise: Annotated[
         float, typer.Option(help="Sensor noise: sigma x each channel's normalization range")
     ] = 0.0,
 ) -> None:
-    """Record s-curve demonstrations of a behavior into a Parquet dataset."""
+    """Record s-curve demonstrations of a behavior into a Parquet dataset.
+
+    Everything is checked before the first episode runs; on any error nothing is
+    written and an existing OUT is left as it was.
+    """
+    import difflib
+    import math
+
     from behavior_hmm import data
-    from behavior_hmm.teach import BEHAVIORS, read_starts
+    from behavior_hmm.errors import DatasetError
+    from behavior_hmm.teach import (
+        BEHAVIORS,
+        complete_start,
+        default_starts,
+        plan_phases,
+        read_starts,
+    )
 
     if behavior not in BEHAVIORS:
-        raise ConfigError(f"unknown behavior '{behavior}'; choose one of {', '.join(BEHAVIORS)}")
+        close = difflib.get_close_matches(behavior, BEHAVIORS, n=1)
+        hint = f"did you mean '{close[0]}'? " if close else ""
+        raise ConfigError(
+            f"unknown behavior '{behavior}'; {hint}choose one of {', '.join(BEHAVIORS)}"
+        )
     _check_sim(sim)
-    chosen = read_starts(starts) if starts is not None else None
+    if not math.isfinite(noise) or noise < 0:
+        raise ConfigError(f"--noise must be a finite number >= 0, got {noise}")
+    if seed < 0:
+        raise ConfigError(f"--seed must be >= 0, got {seed}")
+    if starts is not None and starts.resolve() == out.resolve():
+        raise ConfigError(f"-o {out} would overwrite the starts file")
+    chosen = read_starts(starts) if starts is not None else default_starts(behavior)
+    # Check every start against the behavior now, not after minutes of simulation.
+    for i, start in enumerate(chosen):
+        try:
+            full = complete_start(behavior, start)
+            plan_phases(behavior, full["angle"], full["distance"], full.get("goal_distance"))
+        except ConfigError as err:
+            values = ", ".join(f"{key} {value:g}" for key, value in start.items())
+            raise DatasetError(
+                f"start {i + 1} ({values}): {err}",
+                file=None if starts is None else str(starts),
+                field=None if "distance" in start else "distance",
+            ) from None
     dataset = _collect_with_progress(behavior, chosen, sim, seed, noise)
     data.write(dataset, out)
     typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
@@ -142,17 +185,39 @@ def import_csv(
         list[str] | None,
         typer.Option(help="CHANNEL=UNIT of your columns, e.g. angle=rad, distance=mm (repeatable)"),
     ] = None,
+    drop: Annotated[
+        list[str] | None,
+        typer.Option(help="A column of your file to ignore (repeatable)"),
+    ] = None,
+    split_on_time_reset: Annotated[
+        bool,
+        typer.Option(help="Without an episode column: start a new episode wherever time drops"),
+    ] = False,
+    delimiter: Annotated[str, typer.Option(help="Cell separator, e.g. ';' or 'tab'")] = ",",
     behavior: Annotated[str | None, typer.Option(help="Behavior name stored in metadata")] = None,
 ) -> None:
-    """Convert a CSV log into a validated dataset."""
+    """Convert a CSV log into a validated dataset (same checks as Parquet)."""
     from behavior_hmm import data
 
     mapping = _pairs(map_ or [], "--map")
     units = _pairs(unit or [], "--unit")
-    metadata: dict[str, Any] = {"source": str(csv_file)}
+    sep = "\t" if delimiter in ("tab", "\\t") else delimiter
+    if len(sep) != 1:
+        raise ConfigError(f"--delimiter must be one character or 'tab', got '{delimiter}'")
+    if csv_file.resolve() == out.resolve():
+        raise ConfigError(f"-o {out} would overwrite the CSV file being imported")
+    metadata: dict[str, Any] = {}
     if behavior is not None:
         metadata["behavior"] = behavior
-    dataset = data.import_csv(csv_file, mapping=mapping, units=units, metadata=metadata)
+    dataset = data.import_csv(
+        csv_file,
+        mapping=mapping,
+        units=units,
+        drop=drop or (),
+        metadata=metadata,
+        split_on_time_reset=split_on_time_reset,
+        delimiter=sep,
+    )
     data.write(dataset, out)
     typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
 
@@ -168,38 +233,60 @@ def inspect(
         Path | None, typer.Option("--json", help="Write the summary as JSON")
     ] = None,
 ) -> None:
-    """Summarize a dataset and plot its demonstrations."""
+    """Summarize a dataset (episodes, durations, channel ranges) and plot it as a PNG.
+
+    The plot shows each demonstration as time-vs-angle and time-vs-distance curves
+    (thesis figures 6.8-6.10).
+    """
     from behavior_hmm import data
+    from behavior_hmm._atomic import atomic_write_bytes
     from behavior_hmm.viz import plot_demonstrations
 
+    if dataset_file.suffix.lower() in (".csv", ".tsv", ".txt"):
+        raise ConfigError(
+            f"{dataset_file}: inspect reads Parquet datasets; "
+            "convert a CSV log first with 'behavior-hmm import-csv'"
+        )
+    png = plot if plot is not None else dataset_file.with_suffix(".png")
+    for option, path in (("--plot", png), ("--json", json_out)):
+        if path is not None and path.resolve() == dataset_file.resolve():
+            raise ConfigError(f"{option} {path} would overwrite the dataset")
     dataset = data.read(dataset_file)
     summary = data.summarize(dataset)
     _print_summary(dataset_file, summary)
-    png = plot if plot is not None else dataset_file.with_suffix(".png")
     plot_demonstrations(dataset, png)
     typer.echo(f"plot: {png}")
     if json_out is not None:
-        from behavior_hmm._atomic import atomic_write_bytes
-
-        atomic_write_bytes(json_out, json.dumps(summary, indent=2, default=str).encode())
+        text = json.dumps(summary, indent=2, default=str) + "\n"
+        try:
+            atomic_write_bytes(json_out, text.encode())
+        except OSError as exc:
+            raise ConfigError(f"{json_out}: cannot write JSON ({exc.strerror or exc})") from None
+        typer.echo(f"summary: {json_out}")
 
 
 def _print_summary(path: Path, summary: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    console = Console()
-    console.print(f"[bold]{path}[/bold]")
+    # File names and metadata are the user's text: never read them as rich markup.
+    console = Console(highlight=False)
+    console.print(str(path), style="bold", markup=False)
     meta = summary.get("metadata", {})
     for key in ("behavior", "simulator", "seed", "noise"):
         if key in meta:
-            console.print(f"  {key}: {meta[key]}")
+            console.print(f"  {key}: {meta[key]}", markup=False)
+    source = meta.get("source")
+    if isinstance(source, dict) and "file" in source:
+        console.print(f"  imported from: {source['file']}", markup=False)
     console.print(f"  episodes: {summary['episodes']}, samples: {summary['samples']}")
     for key in ("samples_per_episode", "duration_s"):
         stats = summary.get(key, {})
         console.print(f"  {key}: " + ", ".join(f"{k} {_fmt(v)}" for k, v in stats.items()))
+    if summary.get("sample_period_s") is not None:
+        console.print(f"  sample_period_s: {_fmt(summary['sample_period_s'])}")
     if summary.get("behaviors"):
-        console.print(f"  behaviors: {', '.join(summary['behaviors'])}")
+        console.print(f"  behaviors: {', '.join(summary['behaviors'])}", markup=False)
     table = Table(title="channels")
     for col in ("channel", "unit", "min", "max"):
         table.add_column(col)
@@ -221,16 +308,20 @@ def bench(
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON")] = None,
     quick: Annotated[bool, typer.Option(help="Fewer repeats (a smoke run)")] = False,
 ) -> None:
-    """Run a benchmark from benchmarks/ and report medians."""
+    """Run a benchmark from benchmarks/ and print its results (medians) as JSON."""
+    from behavior_hmm._atomic import atomic_write_bytes
     from benchmarks import run_benchmark
 
+    if json_out is not None and json_out.is_dir():
+        raise ConfigError(f"--json {json_out} is a folder; give a file name")
     results = run_benchmark(name, quick=quick)
     text = json.dumps(results, indent=2, sort_keys=True)
     typer.echo(text)
     if json_out is not None:
-        from behavior_hmm._atomic import atomic_write_bytes
-
-        atomic_write_bytes(json_out, (text + "\n").encode())
+        try:
+            atomic_write_bytes(json_out, (text + "\n").encode())
+        except OSError as exc:
+            raise ConfigError(f"{json_out}: cannot write JSON ({exc.strerror or exc})") from None
 
 
 @app.command()
@@ -240,31 +331,39 @@ def demo(
         "demo-output"
     ),
     sim: Annotated[str, typer.Option(help="Simulator backend: mujoco or kinematic")] = "mujoco",
-    seed: Annotated[int, typer.Option(help="Seed")] = 0,
+    seed: Annotated[int, typer.Option(help="Seed (>= 0)")] = 0,
 ) -> None:
     """Run the whole pipeline on the default simulator and report."""
     from behavior_hmm import data
+    from behavior_hmm.teach import default_starts
     from behavior_hmm.viz import plot_demonstrations
 
     _check_sim(sim)
+    if seed < 0:
+        raise ConfigError(f"--seed must be >= 0, got {seed}")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"-o {out} is a file; give a folder for the demo's output")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for behavior in ("turn", "approach", "turn-approach"):
-        dataset = _collect_with_progress(behavior, None, sim, seed, 0.0)
+        dataset = _collect_with_progress(behavior, default_starts(behavior), sim, seed, 0.0)
         path = out / f"{behavior}.parquet"
         data.write(dataset, path)
         png = out / f"{behavior}.png"
         plot_demonstrations(dataset, png)
-        rows.append((behavior, len(dataset), dataset.n_samples, str(path), str(png)))
+        rows.append((behavior, len(dataset), dataset.n_samples, path.name, png.name))
+    from rich import box
     from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
-    table = Table(title=f"behavior-hmm demo ({sim})")
+    table = Table(title=f"behavior-hmm demo ({sim})", box=box.SIMPLE_HEAD, show_edge=False)
     for col in ("behavior", "episodes", "rows", "dataset", "plot"):
-        table.add_column(col)
+        table.add_column(col, no_wrap=True)
     for row in rows:
-        table.add_row(*[str(x) for x in row])
+        table.add_row(*[Text(str(x)) for x in row])  # file names are not rich markup
     Console().print(table)
+    typer.echo(f"output: {out}")
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:
@@ -273,8 +372,19 @@ def _pairs(items: list[str], option: str) -> dict[str, str]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
             raise ConfigError(f"{option} expects KEY=VALUE, got '{item}'")
+        if key.strip() in pairs:
+            raise ConfigError(f"{option} gives '{key.strip()}' twice")
         pairs[key.strip()] = value.strip()
     return pairs
+
+
+def _register_learning_commands() -> None:
+    from behavior_hmm._cli_learn import register
+
+    register(app, _user_errors, _progress)
+
+
+_register_learning_commands()
 
 
 def main() -> None:

@@ -443,6 +443,24 @@ class BehaviorHMM:
             plans.popitem(last=False)
         return result
 
+    def state_scores(self, o_current: Category, o_goal: Category) -> NDArray[np.float64]:
+        """Backward Viterbi message of the current observation toward the goal.
+
+        ``scores[i]`` is the best log probability of the planned path from
+        ``o_current`` to ``o_goal`` when state ``i`` emits ``o_current`` (π excluded).
+        ``plan`` takes ``argmax(log π + scores)`` as its first state; a caller that
+        tracks the states already visited can use its own prior instead (see
+        ``runtime.SimpleController``, ``state_decoding="history"``).
+
+        Raises
+        ------
+        UnreachableGoalError
+            The goal cannot be reached from ``o_current``.
+        """
+        plan = self.plan(o_current, o_goal)  # validates, raises if unreachable, warms caches
+        decoder = self._decoders[plan.goal]
+        return decoder._message(plan.observations[0])
+
     # ------------------------------------------------------------ persistence
     def to_arrays(self) -> dict[str, NDArray[Any]]:
         """Learned tables as plain arrays for the model file (no pickle).

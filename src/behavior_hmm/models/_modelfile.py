@@ -86,9 +86,7 @@ def load(path: str | os.PathLike[str]) -> tuple[dict[str, Any], dict[str, np.nda
         with zipfile.ZipFile(io.BytesIO(raw)) as zf:
             names = set(zf.namelist())
             if names != _MEMBERS:
-                raise ModelFileError(
-                    f"{where}: not a behavior-hmm model (members {sorted(names)})"
-                )
+                raise ModelFileError(f"{where}: not a behavior-hmm model (members {sorted(names)})")
             info = zf.getinfo("model.json")
             if info.file_size > _MAX_JSON_BYTES:
                 raise ModelFileError(f"{where}: model.json is implausibly large")

@@ -1,5 +1,17 @@
 """Plots and reports (matplotlib's object API, headless-safe)."""
 
 from behavior_hmm.viz._demonstrations import DEFAULT_PLOT_CHANNELS, plot_demonstrations
+from behavior_hmm.viz._learning_curves import plot_generator_sweeps, plot_learning_curves
+from behavior_hmm.viz._reports import simple_table, write_simple_report
+from behavior_hmm.viz._traces import plot_generated_vs_demonstrated, plot_trace
 
-__all__ = ["DEFAULT_PLOT_CHANNELS", "plot_demonstrations"]
+__all__ = [
+    "DEFAULT_PLOT_CHANNELS",
+    "plot_demonstrations",
+    "plot_generated_vs_demonstrated",
+    "plot_generator_sweeps",
+    "plot_learning_curves",
+    "plot_trace",
+    "simple_table",
+    "write_simple_report",
+]

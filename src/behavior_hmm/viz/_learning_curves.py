@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -73,3 +74,24 @@ def plot_learning_curves(
     target = Path(path)
     atomic_write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
     return target
+
+
+def plot_generator_sweeps(
+    report: Mapping[str, Any], out_dir: str | os.PathLike[str]
+) -> dict[str, str]:
+    """One PNG per sweep of :func:`~behavior_hmm.evaluate.run_generator_sweeps` (figs 6.5-6.7).
+
+    Returns the written paths by sweep name.
+    """
+    out = Path(out_dir)
+    figures: dict[str, str] = {}
+    for name, entries in report["sweeps"].items():
+        path = plot_learning_curves(
+            {label: entry["test_error"] for label, entry in entries.items()},
+            out / f"generator_sweep_{name}.png",
+            report.get("titles", {}).get(name, name),
+            xlabel="epoch",
+            ylabel="test RMS error (normalized commands)",
+        )
+        figures[name] = str(path)
+    return figures

@@ -1,0 +1,417 @@
+"""Vectorized CobART scoring and learning on preallocated buffers.
+
+A window (or, for the relation network, a stack of windows, one per *part*) is mapped
+to a feature vector ``[raw readings, first differences]``. The squared RMS of every
+similarity group (EDM or DCM of one channel of one part) is a scaled sum of squared
+feature differences, computed for all categories at once with one matrix product
+through the expansion ``|p - z|^2 = |z|^2 - 2 p·z + |p|^2``::
+
+    S = [Z, |Z|^2_g, -1/2] @ [[-2 G ⊙ p], [I], [p @ (-2 G ⊙ p)]]     (K, n_groups)
+    r_k = 1 - Σ_g w_g · min(1, sqrt(max(S_kg, 0)))
+
+with ``G`` the (feature, group) matrix holding ``1 / (I e^2)`` (EDM) and
+``1 / ((I - 1) s_c^2)`` (DCM) and ``w`` the group weights (``(1 - b)/C`` and ``b/C``
+times the part weight), which sum to 1. The expansion loses up to ~1e-8 of a score
+next to an exact match, so a winner's score is recomputed exactly (directly from
+the differences) whenever it lies within ``EXACT_BAND`` of 1 or of the vigilance.
+
+Every buffer is 64-byte aligned so that the same products take the same BLAS code
+path in the offline and in the live categorizer (bit-identical results).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Scores within this of 1 or of the vigilance are recomputed exactly.
+EXACT_BAND: Final[float] = 1e-6
+
+
+def aligned_zeros(shape: int | tuple[int, ...], align: int = 64) -> FloatArray:
+    """Zero float64 array whose data start on an ``align``-byte boundary."""
+    shp = (shape,) if isinstance(shape, int) else tuple(shape)
+    n = int(np.prod(shp)) if shp else 1
+    buf = np.zeros(n + align // 8, dtype=np.float64)
+    off = (-buf.ctypes.data % align) // 8
+    return buf[off : off + n].reshape(shp)
+
+
+@dataclass(frozen=True, eq=False)
+class Layout:
+    """Feature layout of one or more window parts and its similarity groups.
+
+    Attributes
+    ----------
+    windows, channels
+        ``I_m`` and ``C_m`` of every part.
+    raw_offsets, diff_offsets
+        Where each part's raw readings / differences start in the feature vector.
+    n_raw, n_features, n_groups
+        Sizes; raw readings come first (``n_raw`` = Σ I_m C_m).
+    gs
+        ``(n_features, n_groups)`` scaled membership matrix.
+    wts
+        ``(n_groups,)`` group weights, summing to 1.
+    """
+
+    windows: tuple[int, ...]
+    channels: tuple[int, ...]
+    raw_offsets: tuple[int, ...]
+    diff_offsets: tuple[int, ...]
+    n_raw: int
+    n_features: int
+    n_groups: int
+    gs: FloatArray
+    wts: FloatArray
+
+
+def make_layout(
+    windows: Sequence[int],
+    channels: Sequence[int],
+    part_weights: Sequence[float],
+    b: float,
+    edm_scale: float,
+    dcm_scales: Sequence[FloatArray],
+) -> Layout:
+    """Build the layout for parts ``(I_m, C_m)`` weighted ``w_m`` (normalized to sum 1)."""
+    wsum = float(sum(part_weights))
+    raw_off, diff_off = [], []
+    n_raw = n_diff = 0
+    for i_m, c_m in zip(windows, channels, strict=True):
+        raw_off.append(n_raw)
+        diff_off.append(n_diff)
+        n_raw += i_m * c_m
+        n_diff += (i_m - 1) * c_m
+    n_feat = n_raw + n_diff
+    cols: list[FloatArray] = []
+    wts: list[float] = []
+    for m, (i_m, c_m) in enumerate(zip(windows, channels, strict=True)):
+        w_m = float(part_weights[m]) / wsum
+        for c in range(c_m):
+            col = np.zeros(n_feat)
+            col[raw_off[m] + c : raw_off[m] + i_m * c_m : c_m] = 1.0 / (i_m * edm_scale**2)
+            cols.append(col)
+            wts.append(w_m * ((1.0 - b) if i_m > 1 else 1.0) / c_m)
+            if i_m > 1:
+                col = np.zeros(n_feat)
+                start = n_raw + diff_off[m] + c
+                col[start : n_raw + diff_off[m] + (i_m - 1) * c_m : c_m] = 1.0 / (
+                    (i_m - 1) * float(dcm_scales[m][c]) ** 2
+                )
+                cols.append(col)
+                wts.append(w_m * b / c_m)
+    gs = np.stack(cols, axis=1)
+    return Layout(
+        windows=tuple(int(i) for i in windows),
+        channels=tuple(int(c) for c in channels),
+        raw_offsets=tuple(raw_off),
+        diff_offsets=tuple(diff_off),
+        n_raw=n_raw,
+        n_features=n_feat,
+        n_groups=gs.shape[1],
+        gs=gs,
+        wts=np.asarray(wts),
+    )
+
+
+def features(layout: Layout, raw: FloatArray) -> FloatArray:
+    """Feature rows ``[raw, differences]`` for raw rows ``(N, n_raw)``."""
+    out = np.empty((raw.shape[0], layout.n_features))
+    out[:, : layout.n_raw] = raw
+    for i_m, c_m, ro, do in zip(
+        layout.windows, layout.channels, layout.raw_offsets, layout.diff_offsets, strict=True
+    ):
+        if i_m > 1:
+            part = raw[:, ro : ro + i_m * c_m]
+            d0 = layout.n_raw + do
+            np.subtract(part[:, c_m:], part[:, :-c_m], out=out[:, d0 : d0 + (i_m - 1) * c_m])
+    return out
+
+
+def episode_windows(x: FloatArray, window: int) -> FloatArray:
+    """Causal windows of one episode ``(T, C)`` → ``(T, I*C)`` rows ``t-I+1..t`` flattened.
+
+    The first ``I - 1`` steps are padded by repeating the episode's first reading.
+    """
+    t_len, c = x.shape
+    pad = np.concatenate([np.repeat(x[:1], window - 1, axis=0), x], axis=0)
+    win = np.lib.stride_tricks.sliding_window_view(pad, window, axis=0)  # (T, C, I)
+    return np.ascontiguousarray(win.transpose(0, 2, 1)).reshape(t_len, window * c)
+
+
+class Engine:
+    """Categories in feature space: prototypes, their group norms and win counts."""
+
+    def __init__(self, layout: Layout, capacity: int = 32) -> None:
+        self.layout = layout
+        f, g = layout.n_features, layout.n_groups
+        self.F = f
+        self.NG = g
+        self.width = f + g + 1
+        self.K = 0
+        self.counts: list[int] = []
+        self.gs = aligned_zeros((f, g))
+        self.gs[:] = layout.gs
+        self.gm2 = aligned_zeros((f, g))
+        self.gm2[:] = -2.0 * layout.gs
+        self.wts = aligned_zeros(g)
+        self.wts[:] = layout.wts
+        self.paug = aligned_zeros((self.width, g))
+        self.paug[f : f + g] = np.eye(g)
+        self.top = self.paug[:f]
+        self.pn2 = self.paug[f + g]
+        self.pt = aligned_zeros(f)
+        self.pt_col = self.pt[:, None]
+        self.tmp = aligned_zeros(f)
+        self.zl = aligned_zeros(f)
+        self._alloc(max(int(capacity), 1))
+
+    def _alloc(self, capacity: int) -> None:
+        self.capacity = capacity
+        self.zaug = aligned_zeros((capacity, self.width))
+        self.s = aligned_zeros((capacity, self.NG))
+        self.v = aligned_zeros(capacity)
+        # per-row views for the single-part fast path: raw, raw[C:], raw[:-C], diffs,
+        # features, group norms
+        nr, f = self.layout.n_raw, self.F
+        c = self.layout.channels[0]
+        self.rows = [
+            (r[:nr], r[c:nr], r[: nr - c], r[nr:f], r[:f], r[f : f + self.NG]) for r in self.zaug
+        ]
+
+    def grow(self) -> None:
+        """Double the capacity, keeping the categories."""
+        old_z = self.zaug
+        self._alloc(self.capacity * 2)
+        self.zaug[: self.K] = old_z[: self.K]
+
+    # -- single operations (used by the hierarchical network and the slow paths) --
+    def load(self, protos: FloatArray, counts: Sequence[int]) -> None:
+        """Replace all categories by feature rows ``protos`` ``(K, F)`` with win ``counts``."""
+        k = protos.shape[0]
+        while self.capacity < k:
+            self._alloc(self.capacity * 2)
+        self.K = 0
+        self.counts = []
+        for i in range(k):
+            self.add(protos[i], int(counts[i]))
+
+    def _fix_diffs(self, row: FloatArray) -> None:
+        """Recompute a feature row's differences from its raw readings (as ``features``)."""
+        lay = self.layout
+        nr = lay.n_raw
+        for i_m, c_m, ro, do in zip(
+            lay.windows, lay.channels, lay.raw_offsets, lay.diff_offsets, strict=True
+        ):
+            if i_m > 1:
+                n = (i_m - 1) * c_m
+                np.subtract(
+                    row[ro + c_m : ro + i_m * c_m], row[ro : ro + n], out=row[nr + do : nr + do + n]
+                )
+
+    def _set_norms(self, row: FloatArray) -> None:
+        f = self.F
+        np.multiply(row[:f], row[:f], out=self.tmp)
+        np.dot(self.tmp, self.gs, out=row[f : f + self.NG])
+
+    def add(self, pt: FloatArray, count: int = 1) -> int:
+        """Append a category with prototype ``pt`` (features); returns its index.
+
+        The prototype is its raw readings; its differences are recomputed from them, so
+        a prototype is fully defined by ``prototypes_`` (a restored model is identical).
+        """
+        if self.K == self.capacity:
+            self.grow()
+        k = self.K
+        row = self.zaug[k]
+        row[: self.F] = pt
+        self._fix_diffs(row)
+        self._set_norms(row)
+        row[-1] = -0.5
+        self.counts.append(count)
+        self.K = k + 1
+        return k
+
+    def learn(self, k: int, pt: FloatArray, d: float, alpha: float) -> None:
+        """Move prototype ``k`` toward ``pt`` by ``d · n_k^alpha`` (``n_k`` counts this win)."""
+        n = self.counts[k] + 1
+        self.counts[k] = n
+        lr = d * n**alpha
+        nr = self.layout.n_raw
+        row = self.zaug[k]
+        zr = row[:nr]
+        tr = self.tmp[:nr]
+        np.subtract(pt[:nr], zr, out=tr)
+        np.multiply(tr, lr, out=tr)
+        np.add(zr, tr, out=zr)
+        self._fix_diffs(row)
+        self._set_norms(row)
+
+    def exact_score(self, k: int, pt: FloatArray) -> float:
+        """Score of category ``k`` computed directly from the differences (no expansion)."""
+        d = self.zaug[k, : self.F] - pt
+        sq = np.sqrt((d * d) @ self.gs)
+        return max(0.0, 1.0 - float(np.minimum(sq, 1.0) @ self.wts))
+
+    def prototypes(self) -> FloatArray:
+        """Copy of the prototypes' feature rows ``(K, F)``."""
+        return self.zaug[: self.K, : self.F].copy()
+
+
+def fit_episode(
+    eng: Engine,
+    wt: FloatArray,
+    a: float,
+    rho: float,
+    d: float,
+    alpha: float,
+    labels: list[int],
+) -> None:
+    """Categorize and learn one episode of window features ``wt`` ``(T, F)`` in order.
+
+    Appends one category per step to ``labels``. ``z_last`` starts empty: the first
+    step's processed input is the window itself.
+    """
+    f = eng.F
+    oma = 1.0 - a
+    awt = wt * a
+    pt, pt_col, tmp, zl = eng.pt, eng.pt_col, eng.tmp, eng.zl
+    if len(eng.layout.windows) != 1:
+        raise ValueError("fit_episode handles single-part layouts only")
+    nr = eng.layout.n_raw
+    has_diff = nr < f
+    pt_raw, tmp_raw = pt[:nr], tmp[:nr]
+    top, pn2, paug, gm2, gs, wts = eng.top, eng.pn2, eng.paug, eng.gm2, eng.gs, eng.wts
+    counts = eng.counts
+    k_cnt = eng.K
+    zaug = eng.zaug
+    rows = eng.rows
+    z, s, v = zaug[:k_cnt], eng.s[:k_cnt], eng.v[:k_cnt]
+    hi = 1.0 - EXACT_BAND
+    append = labels.append
+    for t in range(wt.shape[0]):
+        if t == 0:
+            np.copyto(pt, wt[0])
+        else:
+            np.add(awt[t], zl, out=pt)
+        if k_cnt:
+            np.multiply(gm2, pt_col, out=top)
+            np.dot(pt, top, out=pn2)
+            np.dot(z, paug, out=s)
+            np.maximum(s, 0.0, out=s)
+            np.sqrt(s, out=s)
+            np.minimum(s, 1.0, out=s)
+            np.dot(s, wts, out=v)
+            k = int(v.argmin())
+            score = 1.0 - float(v[k])
+            if score > hi or abs(score - rho) < EXACT_BAND:
+                score = eng.exact_score(k, pt)
+            elif score < 0.0:
+                score = 0.0
+        else:
+            k = 0
+            score = -1.0
+        if score >= rho:
+            # resonance: z_k += d · n_k^alpha · (p - z_k), on the raw readings
+            n = counts[k] + 1
+            counts[k] = n
+            lr = d * n**alpha
+            zr, z_hi, z_lo, zd, zk, zn = rows[k]
+            np.subtract(pt_raw, zr, out=tmp_raw)
+            np.multiply(tmp_raw, lr, out=tmp_raw)
+            np.add(zr, tmp_raw, out=zr)
+            if has_diff:
+                np.subtract(z_hi, z_lo, out=zd)
+            np.multiply(zk, zk, out=tmp)
+            np.dot(tmp, gs, out=zn)
+            np.multiply(zk, oma, out=zl)
+        else:
+            k = eng.add(pt)
+            k_cnt = eng.K
+            zaug = eng.zaug
+            rows = eng.rows
+            z, s, v = zaug[:k_cnt], eng.s[:k_cnt], eng.v[:k_cnt]
+            np.multiply(rows[k][4], oma, out=zl)
+        append(k)
+
+
+class Predictor:
+    """Fixed-prototype categorizer shared by ``predict`` and the live stream.
+
+    Holds an aligned snapshot of an engine's categories; ``step`` categorizes one
+    processed-input feature vector. Both offline and live paths run the same
+    operations on buffers of the same shapes, so they agree bit for bit.
+    """
+
+    def __init__(self, eng: Engine, a: float, rho: float) -> None:
+        k, f, g = eng.K, eng.F, eng.NG
+        self.K, self.F, self.NG = k, f, g
+        self.a = a
+        self.oma = 1.0 - a
+        self.rho = rho
+        self.zaug = aligned_zeros((k, eng.width))
+        self.zaug[:] = eng.zaug[:k]
+        self.z = self.zaug[:, :f]
+        self.omaz = aligned_zeros((k, f))
+        np.multiply(self.z, self.oma, out=self.omaz)
+        self.omaz_rows = list(self.omaz)
+        self.gs = aligned_zeros((f, g))
+        self.gs[:] = eng.gs
+        self.gm2 = aligned_zeros((f, g))
+        self.gm2[:] = eng.gm2
+        self.wts = aligned_zeros(g)
+        self.wts[:] = eng.wts
+        self.paug = aligned_zeros((eng.width, g))
+        self.paug[:] = eng.paug
+        self.top = self.paug[:f]
+        self.pn2 = self.paug[f + g]
+        self.s = aligned_zeros((k, g))
+        self.v = aligned_zeros(k)
+        self.pt = aligned_zeros(f)
+        self.pt_col = self.pt[:, None]
+        self.tmp = aligned_zeros(f)
+
+    def exact_score(self, k: int) -> float:
+        """Score of category ``k`` for the current ``pt``, directly from the differences."""
+        d = self.z[k] - self.pt
+        sq = np.sqrt((d * d) @ self.gs)
+        return max(0.0, 1.0 - float(np.minimum(sq, 1.0) @ self.wts))
+
+    def episode(
+        self, wt: FloatArray, labels: NDArray[np.int64], scores: FloatArray, offset: int
+    ) -> None:
+        """Categorize one episode (features ``(T, F)``) into ``labels``/``scores`` at ``offset``."""
+        awt = wt * self.a
+        pt, pt_col, omaz = self.pt, self.pt_col, self.omaz_rows
+        top, pn2, paug, gm2, wts = self.top, self.pn2, self.paug, self.gm2, self.wts
+        z, s, v = self.zaug, self.s, self.v
+        rho = self.rho
+        hi = 1.0 - EXACT_BAND
+        k = -1
+        for t in range(wt.shape[0]):
+            if k < 0:
+                np.copyto(pt, wt[t])
+            else:
+                np.add(awt[t], omaz[k], out=pt)
+            np.multiply(gm2, pt_col, out=top)
+            np.dot(pt, top, out=pn2)
+            np.dot(z, paug, out=s)
+            np.maximum(s, 0.0, out=s)
+            np.sqrt(s, out=s)
+            np.minimum(s, 1.0, out=s)
+            np.dot(s, wts, out=v)
+            k = int(v.argmin())
+            score = 1.0 - float(v[k])
+            if score > hi or abs(score - rho) < EXACT_BAND:
+                score = self.exact_score(k)
+            elif score < 0.0:
+                score = 0.0
+            labels[offset + t] = k
+            scores[offset + t] = score

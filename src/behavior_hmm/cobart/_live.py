@@ -1,0 +1,127 @@
+"""Run-time categorization of a live stream, one reading at a time."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from behavior_hmm.cobart._engine import EXACT_BAND, aligned_zeros
+from behavior_hmm.errors import ConfigError, DatasetError
+
+if TYPE_CHECKING:
+    from behavior_hmm.cobart._cobart import CobART
+
+
+class LiveCategorizer:
+    """Categorize a live stream reading by reading, without learning.
+
+    Keeps its own window of the last ``I`` readings (the first reading after
+    :meth:`reset` fills it, as the offline pass pads an episode) and the last best
+    category. Over one episode it returns exactly what ``CobART.categorize`` returns
+    for that episode. It works on a snapshot of the categories taken when it was
+    created; later learning does not affect it.
+
+    Obtain one from :meth:`CobART.stream`.
+    """
+
+    def __init__(self, model: CobART) -> None:
+        pred = model._predictor()
+        self._pred = pred
+        self.window = model._fit.window
+        self.n_channels = model.n_features_in_
+        self.rho = model._fit.rho
+        self.n_categories = pred.K
+        i, c = self.window, self.n_channels
+        self._ic = i * c
+        self._shape = (c,)
+        self._buf = aligned_zeros((2 * i, c))
+        self._views = [self._buf[j + 1 : j + 1 + i].reshape(-1) for j in range(i)]
+        self._wt = aligned_zeros(pred.F)
+        self._raw = self._wt[: self._ic]
+        self._diff = self._wt[self._ic :]
+        self._awt = aligned_zeros(pred.F)
+        p = pred
+        self._hot = (
+            self._buf, self._views, self._raw, self._diff, self._wt, self._awt, i, c, p.a,
+            p.omaz_rows, p.pt, p.pt_col, p.gm2, p.top, p.pn2, p.zaug, p.paug, p.s,
+            p.wts, p.v, self.rho, p.exact_score,
+        )  # fmt: skip
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new episode: empty window, no last category."""
+        self._pos = -1
+        self._last = -1
+
+    def update(self, reading: ArrayLike) -> tuple[int, bool, float]:
+        """Categorize the window ending with ``reading``.
+
+        Parameters
+        ----------
+        reading
+            One filtered, normalized reading, shape ``(C,)``.
+
+        Returns
+        -------
+        category, novel, score
+            Best category, whether its score is below the vigilance ``rho``, and the
+            score in [0, 1].
+
+        Raises
+        ------
+        ConfigError
+            Wrong number of channels.
+        DatasetError
+            NaN or inf in the reading.
+        """
+        r = np.asarray(reading, dtype=np.float64)
+        if r.shape != self._shape:
+            if r.ndim == 0 and self._shape == (1,):
+                r = r.reshape(1)
+            else:
+                raise ConfigError(f"reading must have shape {self._shape}, got {np.shape(reading)}")
+        if not all(map(math.isfinite, r.tolist())):
+            raise DatasetError("NaN or infinite value in live reading")
+        # fmt: off
+        (buf, views, raw, diff, wt, awt, i, c, a, omaz, pt, pt_col, gm2, top, pn2, zaug, paug,
+         sc, wts, v, rho, exact) = self._hot
+        # fmt: on
+        pos = self._pos
+        if pos < 0:
+            buf[:] = r
+            pos = 0
+        else:
+            pos += 1
+            if pos == i:
+                pos = 0
+            buf[pos] = r
+            buf[pos + i] = r
+        self._pos = pos
+        view = views[pos]
+        np.copyto(raw, view)
+        if i > 1:
+            np.subtract(view[c:], view[:-c], out=diff)
+        k = self._last
+        if k < 0:
+            np.copyto(pt, wt)
+        else:
+            np.multiply(wt, a, out=awt)
+            np.add(awt, omaz[k], out=pt)
+        np.multiply(gm2, pt_col, out=top)
+        np.dot(pt, top, out=pn2)
+        np.dot(zaug, paug, out=sc)
+        np.maximum(sc, 0.0, out=sc)
+        np.sqrt(sc, out=sc)
+        np.minimum(sc, 1.0, out=sc)
+        np.dot(sc, wts, out=v)
+        k = int(v.argmin())
+        score = 1.0 - float(v[k])
+        if score > 1.0 - EXACT_BAND or abs(score - rho) < EXACT_BAND:
+            score = exact(k)
+        elif score < 0.0:
+            score = 0.0
+        self._last = k
+        return k, score < rho, score

@@ -1,0 +1,180 @@
+"""Evaluation protocol (DESIGN §6): generate from test starts, compare with the teacher."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from behavior_hmm.errors import ConfigError
+from behavior_hmm.evaluate._metrics import success_rate, zero_floor
+
+Progress = Callable[[int, int], None]
+
+#: Teacher behavior demonstrated for a model's behavior name.
+_TEACHER_OF = {
+    "turn": "turn",
+    "approach": "approach",
+    "retreat": "retreat",
+    "turn-approach": "turn-approach",
+    "position": "position",
+}
+
+
+def split_start(start: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float]]:
+    """Split a starts-CSV row into the start (angle, distance) and a per-case goal."""
+    begin = {k: float(v) for k, v in start.items() if not k.startswith("goal_")}
+    goal = {k[len("goal_") :]: float(v) for k, v in start.items() if k.startswith("goal_")}
+    return begin, goal
+
+
+def reference_demonstration(
+    behavior: str,
+    start: Mapping[str, float],
+    goal: Mapping[str, float],
+    env: Any,
+    *,
+    seed: int,
+    noise: float,
+) -> dict[str, np.ndarray]:
+    """The teacher's demonstration (dataset columns) from ``start`` in ``env``."""
+    from behavior_hmm.teach import Teacher, complete_start
+
+    teacher_behavior = _TEACHER_OF.get(behavior)
+    if teacher_behavior is None:
+        raise ConfigError(
+            f"no teacher for behavior '{behavior}'; evaluation needs one of {sorted(_TEACHER_OF)}"
+        )
+    full = complete_start(teacher_behavior, dict(start))
+    demo = Teacher(env).demonstrate(
+        teacher_behavior,
+        full["angle"],
+        full["distance"],
+        goal_distance=goal.get("distance"),
+        seed=seed,
+        noise=noise,
+    )
+    return demo.as_arrays()
+
+
+def evaluate_model(
+    model: Any,
+    starts: Sequence[Mapping[str, float]],
+    *,
+    sim: str = "mujoco",
+    seed: int = 0,
+    noise: float = 0.0,
+    baselines: Mapping[str, Any] | None = None,
+    progress: Progress | None = None,
+    keep_traces: bool = False,
+) -> dict[str, Any]:
+    """Run ``model`` (and baselines) from every start and score them against the teacher.
+
+    Parameters
+    ----------
+    model
+        A fitted SBLM or CBLM (anything with ``generate``, ``command_scale_``, ``behavior_``).
+    starts
+        Start dicts (``angle``, ``distance``, optional ``goal_<channel>``).
+    sim, seed, noise
+        Simulator backend, seed (case ``i`` uses ``seed + i``) and sensor noise.
+    baselines
+        Fitted baselines by name, evaluated on the same starts and references.
+    progress
+        Called as ``progress(done, total)``.
+
+    Returns
+    -------
+    dict
+        The evaluation JSON contract: ``behavior``, ``inputs``, ``n``, ``success_rate_mean``,
+        ``goal_reached``, ``zero_floor_mean``, ``success_rate_motor_max_mean``, ``cases``
+        and ``baselines`` (same summary per baseline).
+    """
+    from behavior_hmm.sim import make_env
+    from behavior_hmm.teach import complete_start
+
+    if not starts:
+        raise ConfigError("no starts to evaluate")
+    env = make_env(sim)
+    motor_max = float(env.unwrapped.params.max_wheel_speed)
+    behavior = str(model.behavior_)
+    scale = float(model.command_scale_)
+    runners = {"model": model, **dict(baselines or {})}
+    cases: dict[str, list[dict[str, Any]]] = {name: [] for name in runners}
+    traces: dict[str, list[Any]] = {name: [] for name in runners}
+    total = len(starts) * len(runners)
+    done = 0
+    for i, row in enumerate(starts):
+        begin, case_goal = split_start(row)
+        teacher_behavior = _TEACHER_OF.get(behavior, behavior)
+        full = complete_start(teacher_behavior, begin)
+        demo = reference_demonstration(behavior, full, case_goal, env, seed=seed + i, noise=noise)
+        ref = np.column_stack([demo["left"], demo["right"]])
+        floor = zero_floor(ref, scale)
+        floor_motor = zero_floor(ref, motor_max)
+        for name, runner in runners.items():
+            goal = case_goal or None
+            trace = runner.generate(env, start=full, goal=goal, seed=seed + i, noise=noise)
+            gen = trace.command_array
+            errors = trace.final_errors()
+            cases[name].append(
+                {
+                    "start": full,
+                    "goal": trace.goal,
+                    "success_rate": success_rate(gen, ref, scale),
+                    "success_rate_motor_max": success_rate(gen, ref, motor_max),
+                    "zero_floor": floor,
+                    "zero_floor_motor_max": floor_motor,
+                    "goal_reached": bool(trace.goal_reached),
+                    "final_angle_error_deg": errors.get("angle"),
+                    "final_distance_error_m": errors.get("distance"),
+                    "duration_ratio": len(gen) / max(len(ref), 1),
+                    "steps": len(gen),
+                    "reference_steps": len(ref),
+                    "plan_changes": trace.n_plan_changes,
+                    "reason": trace.reason,
+                }
+            )
+            if keep_traces:
+                traces[name].append((trace, demo))
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    result = _summary(cases["model"])
+    result.update(
+        {
+            "behavior": behavior,
+            "inputs": list(getattr(model, "inputs_", [])),
+            "sim": sim,
+            "seed": seed,
+            "noise": noise,
+            "command_scale": scale,
+            "motor_max": motor_max,
+            "cases": cases["model"],
+            "baselines": {
+                name: {**_summary(cases[name]), "cases": cases[name]}
+                for name in runners
+                if name != "model"
+            },
+        }
+    )
+    if keep_traces:
+        result["_traces"] = traces
+    return result
+
+
+def _summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    def mean(key: str) -> float:
+        return float(np.mean([c[key] for c in cases]))
+
+    return {
+        "n": len(cases),
+        "success_rate_mean": mean("success_rate"),
+        "success_rate_median": float(np.median([c["success_rate"] for c in cases])),
+        "goal_reached": int(sum(c["goal_reached"] for c in cases)),
+        "zero_floor_mean": mean("zero_floor"),
+        "success_rate_motor_max_mean": mean("success_rate_motor_max"),
+        "zero_floor_motor_max_mean": mean("zero_floor_motor_max"),
+        "duration_ratio_mean": mean("duration_ratio"),
+    }

@@ -1,0 +1,364 @@
+"""Stacked tanh networks: many small multilayer perceptrons trained in lock-step.
+
+Every network ("slot") in a stack has the same layer sizes. All parameters of
+slot ``p`` live in one row ``theta[p]`` of a ``(P, n_params)`` array, laid out
+layer by layer as bias-augmented matrices ``(n_in + 1, n_out)`` (row-major, the
+last row is the bias). :func:`layer_views` returns ``(P, n_in + 1, n_out)``
+views into it, so the momentum update is a few numpy calls on one array
+whatever the depth, and a bias costs no separate add or reduction: inputs and
+hidden activations carry a trailing column of ones.
+
+The error of a batch is the thesis's ``E = 1/2 * sum (t - o)^2`` summed over
+the batch's samples (thesis §3.4.2.1); the update is the generalized delta
+rule with momentum, ``dw(n) = -lr * dE/dw + momentum * dw(n-1)``. With one
+sample per step this is exactly the thesis's incremental training.
+
+Slots never interact: the arithmetic of a slot only reads that slot's rows, and
+a slot with no sample in a step (``active`` false) keeps its weights and its
+momentum unchanged, so training a slot inside a stack gives the same weights as
+training it alone (tested).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def n_params(sizes: Sequence[int]) -> int:
+    """Number of weights and biases of a network with layer ``sizes`` (inputs first)."""
+    return sum((sizes[i] + 1) * sizes[i + 1] for i in range(len(sizes) - 1))
+
+
+def layer_views(theta: FloatArray, sizes: Sequence[int]) -> list[FloatArray]:
+    """Views ``W_l (P, n_l + 1, n_{l+1})`` into ``theta (P, n_params)``; row ``n_l`` is the bias."""
+    weights: list[FloatArray] = []
+    start = 0
+    n_slots = theta.shape[0]
+    for n_in, n_out in itertools.pairwise(sizes):
+        stop = start + (n_in + 1) * n_out
+        weights.append(theta[:, start:stop].reshape(n_slots, n_in + 1, n_out))
+        start = stop
+    return weights
+
+
+def with_ones(x: FloatArray) -> FloatArray:
+    """``x (..., n)`` with a column of ones appended (the bias input)."""
+    out = np.ones((*x.shape[:-1], x.shape[-1] + 1))
+    out[..., :-1] = x
+    return out
+
+
+def forward(weights: list[FloatArray], x1: FloatArray) -> list[FloatArray]:
+    """Activations ``[x1, h_1, ..., out]`` for bias-augmented inputs ``x1 (P, B, n_in + 1)``.
+
+    Hidden activations carry the trailing ones column too; the output does not.
+    """
+    activations = [x1]
+    a = x1
+    last = len(weights) - 1
+    for layer, w in enumerate(weights):
+        if layer < last:
+            a_next = np.ones((a.shape[0], a.shape[1], w.shape[2] + 1))
+            z = a_next[:, :, :-1]
+        else:
+            a_next = z = np.empty((a.shape[0], a.shape[1], w.shape[2]))
+        np.matmul(a, w, out=z)
+        np.tanh(z, out=z)
+        activations.append(a_next)
+        a = a_next
+    return activations
+
+
+def backward(
+    weights: list[FloatArray],
+    activations: list[FloatArray],
+    y: FloatArray,
+    sample_weight: FloatArray,
+    grad_weights: list[FloatArray],
+) -> FloatArray:
+    """Write the gradient of ``E = 1/2 sum_b sample_weight[b] * |out_b - y_b|^2``.
+
+    ``y (P, B, n_out)`` are targets and ``sample_weight (P, B, 1)`` weighs each
+    sample (0 for padding; the trainer passes the learning rate there, so the
+    "gradient" comes out already scaled). Results go into the ``grad_weights``
+    views, bias rows included; the gradient is summed over the batch.
+
+    Returns
+    -------
+    ndarray, shape (P, B, n_out)
+        The unweighted output error ``out - y``.
+    """
+    out = activations[-1]
+    error = out - y
+    # Output error signal (thesis delta rule): (o - t) * f'(net), f' = 1 - tanh^2.
+    delta = 1.0 - out * out
+    delta *= error
+    delta *= sample_weight
+    for layer in range(len(weights) - 1, -1, -1):
+        a_in = activations[layer]
+        np.matmul(a_in.transpose(0, 2, 1), delta, out=grad_weights[layer])
+        if layer > 0:
+            hidden = a_in[:, :, :-1]
+            # A contiguous copy of W^T makes the batched matmul take the fast path.
+            w_t = np.ascontiguousarray(weights[layer][:, :-1, :].transpose(0, 2, 1))
+            delta = np.matmul(delta, w_t)
+            delta *= 1.0 - hidden * hidden
+    return error
+
+
+def rms_error(
+    weights: list[FloatArray],
+    x1: FloatArray,
+    y: FloatArray,
+    counts: NDArray[np.int64],
+) -> FloatArray:
+    """RMS error per slot over its first ``counts[p]`` rows; NaN where ``counts[p] == 0``."""
+    n_slots, n_rows = x1.shape[0], x1.shape[1]
+    result = np.full(n_slots, np.nan)
+    if n_rows == 0:
+        return result
+    out = forward(weights, x1)[-1]
+    sq = (out - y) ** 2
+    # Sum each slot over its own rows only, so padding never changes the rounding.
+    for p in np.flatnonzero(counts > 0).tolist():
+        count = int(counts[p])
+        result[p] = np.sqrt(sq[p, :count].sum() / (count * y.shape[2]))
+    return result
+
+
+@dataclass
+class TrainResult:
+    """Outcome of :func:`train_stack`.
+
+    ``theta`` (P, n_params) are the kept weights (the best-test-error epoch's
+    where early stopping applied); ``train_error``/``test_error`` (P, epochs)
+    are RMS errors after each epoch (NaN where a slot did not train that epoch
+    or has no test split); ``best_epoch`` (P,) is the 0-based epoch whose
+    weights were kept (-1 for slots that never trained); ``epochs_run`` (P,)
+    counts the epochs each slot trained.
+    """
+
+    theta: FloatArray
+    train_error: FloatArray
+    test_error: FloatArray
+    best_epoch: NDArray[np.int64]
+    epochs_run: NDArray[np.int64]
+
+
+def train_stack(
+    theta0: FloatArray,
+    sizes: Sequence[int],
+    x_train: FloatArray,
+    y_train: FloatArray,
+    n_train: NDArray[np.int64],
+    x_test: FloatArray,
+    y_test: FloatArray,
+    n_test: NDArray[np.int64],
+    *,
+    learning_rate: FloatArray,
+    momentum: FloatArray,
+    epochs: int,
+    batch_size: int,
+    rngs: Sequence[np.random.Generator],
+    early_stopping: bool,
+    patience: int | None,
+) -> TrainResult:
+    """Train every slot of a stack with minibatch backpropagation and momentum.
+
+    Parameters
+    ----------
+    theta0
+        Initial weights, shape (P, n_params); not modified.
+    sizes
+        Layer sizes ``(n_in, hidden..., n_out)``.
+    x_train, y_train
+        Padded training data, shapes (P, N, n_in) and (P, N, n_out); slot ``p``
+        uses its first ``n_train[p]`` rows. Slots with ``n_train[p] == 0`` never train.
+    x_test, y_test, n_test
+        Padded test data the same way (``n_test[p] == 0``: no test split).
+    learning_rate, momentum
+        Per-slot values, shape (P,); the learning rate multiplies the *summed*
+        gradient of a batch (a per-sample rate, as the thesis's incremental rule).
+    epochs, batch_size
+        Each epoch every slot visits each of its training samples once, in an
+        order drawn from its own generator ``rngs[p]``, ``batch_size`` at a
+        time. Slots run in lock-step; a slot that has finished its epoch sits
+        out the remaining steps with its weights and momentum frozen.
+    early_stopping
+        Keep, per slot with a test split, the weights of its lowest-test-error epoch.
+    patience
+        If set, a slot with a test split stops after this many epochs without a
+        new lowest test error.
+    """
+    # Work on the slots sorted by training-set size, largest first (see the step loop).
+    order = np.argsort(-n_train, kind="stable")
+    result = _train_sorted(
+        theta0[order],
+        sizes,
+        x_train[order],
+        y_train[order],
+        n_train[order],
+        x_test[order],
+        y_test[order],
+        n_test[order],
+        learning_rate=np.asarray(learning_rate, dtype=np.float64)[order],
+        momentum=np.asarray(momentum, dtype=np.float64)[order],
+        epochs=epochs,
+        batch_size=batch_size,
+        rngs=[rngs[p] for p in order.tolist()],
+        early_stopping=early_stopping,
+        patience=patience,
+    )
+    back = np.argsort(order)
+    return TrainResult(
+        result.theta[back],
+        result.train_error[back],
+        result.test_error[back],
+        result.best_epoch[back],
+        result.epochs_run[back],
+    )
+
+
+class _PrefixViews:
+    """Views of the first ``k`` slots of the training state (reused across steps)."""
+
+    def __init__(
+        self,
+        theta: FloatArray,
+        velocity: FloatArray,
+        grad: FloatArray,
+        squared: FloatArray,
+        sizes: Sequence[int],
+        k: int,
+    ) -> None:
+        self.theta = theta[:k]
+        self.velocity = velocity[:k]
+        self.grad = grad[:k]
+        self.squared = squared[:k]
+        self.weights = layer_views(self.theta, sizes)
+        self.grad_weights = layer_views(self.grad, sizes)
+
+
+def _train_sorted(
+    theta0: FloatArray,
+    sizes: Sequence[int],
+    x_train: FloatArray,
+    y_train: FloatArray,
+    n_train: NDArray[np.int64],
+    x_test: FloatArray,
+    y_test: FloatArray,
+    n_test: NDArray[np.int64],
+    *,
+    learning_rate: FloatArray,
+    momentum: FloatArray,
+    epochs: int,
+    batch_size: int,
+    rngs: Sequence[np.random.Generator],
+    early_stopping: bool,
+    patience: int | None,
+) -> TrainResult:
+    """:func:`train_stack` on slots sorted by ``n_train``, largest first."""
+    n_slots = theta0.shape[0]
+    theta = theta0.copy()
+    velocity = np.zeros_like(theta)
+    grad = np.zeros_like(theta)
+    weights = layer_views(theta, sizes)
+    squared = np.zeros((n_slots, batch_size, sizes[-1]))  # epoch's squared errors
+    views: dict[int, _PrefixViews] = {}
+    x_train = with_ones(x_train)
+    x_test = with_ones(x_test)
+    n_out = sizes[-1]
+    slot_index = np.arange(n_slots)[None, :, None]
+    lr_row = np.asarray(learning_rate, dtype=np.float64).reshape(n_slots)
+    momentum_row = np.asarray(momentum, dtype=np.float64).reshape(n_slots)
+
+    train_error = np.full((n_slots, epochs), np.nan)
+    test_error = np.full((n_slots, epochs), np.nan)
+    best_epoch = np.full(n_slots, -1, dtype=np.int64)
+    epochs_run = np.zeros(n_slots, dtype=np.int64)
+    best_theta = theta.copy()
+    best_error = np.full(n_slots, np.inf)
+    has_test = n_test > 0
+    running = n_train > 0
+
+    for epoch in range(epochs):
+        if not running.any():
+            break
+        # Steps this epoch: enough for the largest still-running slot.
+        n_steps = int(np.where(running, -(-n_train // batch_size), 0).max())
+        order = np.zeros((n_slots, n_steps * batch_size), dtype=np.int64)
+        valid = np.zeros((n_slots, n_steps * batch_size), dtype=bool)
+        for p in np.flatnonzero(running).tolist():
+            count = int(n_train[p])
+            order[p, :count] = rngs[p].permutation(count)
+            valid[p, :count] = True
+        # Index arrays laid out (steps, P, batch) so each step reads one contiguous block.
+        order_steps = order.reshape(n_slots, n_steps, batch_size).transpose(1, 0, 2)
+        xs = x_train[slot_index, order_steps]  # (steps, P, batch, n_in + 1)
+        ys = y_train[slot_index, order_steps]
+        valid_steps = valid.reshape(n_slots, n_steps, batch_size).transpose(1, 0, 2)
+        valid_steps = valid_steps[:, :, :, None].astype(np.float64)  # (steps, P, batch, 1)
+        step_weights = valid_steps * lr_row[None, :, None, None]
+        # (steps, P): the slot has a sample in this step (its first batch entry is real).
+        active: NDArray[np.bool_] = valid_steps[:, :, 0, 0] > 0
+        # Slots are sorted by size, largest first, so a step only needs the prefix of
+        # slots up to its last active one: once the small slots have finished their
+        # epoch, the big ones run on alone and cheaply.
+        prefix = (n_slots - np.argmax(active[:, ::-1], axis=1)).tolist()
+        all_active = [bool(active[step, :k].all()) for step, k in enumerate(prefix)]
+        # Inactive slots keep their momentum (factor 1) and their weights (step factor 0).
+        momentum_steps = np.where(active, momentum_row[None, :], 1.0)[:, :, None]
+        apply_steps = active.astype(np.float64)[:, :, None]
+        squared[:] = 0.0
+
+        for step in range(n_steps):
+            k = prefix[step]
+            if k not in views:
+                views[k] = _PrefixViews(theta, velocity, grad, squared, sizes, k)
+            v = views[k]
+            activations = forward(v.weights, xs[step, :k])
+            error = backward(
+                v.weights, activations, ys[step, :k], step_weights[step, :k], v.grad_weights
+            )
+            error *= error
+            error *= valid_steps[step, :k]
+            v.squared += error
+            # Momentum update; grad already holds learning_rate * dE/dW.
+            v.velocity *= momentum_steps[step, :k]
+            v.velocity -= v.grad
+            if all_active[step]:
+                v.theta += v.velocity
+            else:
+                v.theta += v.velocity * apply_steps[step, :k]
+
+        epochs_run[running] += 1
+        # Training error: over the epoch's samples, each just before its update.
+        sums = squared.sum(axis=(1, 2))
+        train_error[running, epoch] = np.sqrt(sums[running] / (n_train[running] * n_out))
+        test_err = rms_error(weights, x_test, y_test, n_test)
+        tracked = running & has_test
+        test_error[tracked, epoch] = test_err[tracked]
+        improved = tracked & (test_err < best_error)
+        best_error[improved] = test_err[improved]
+        best_theta[improved] = theta[improved]
+        best_epoch[improved] = epoch
+        if patience is not None:
+            running &= ~(tracked & (epoch - best_epoch >= patience))
+
+    if early_stopping:
+        keep = has_test & (best_epoch >= 0)
+        theta[keep] = best_theta[keep]
+    trained = n_train > 0
+    if not early_stopping:
+        best_epoch[trained] = epochs_run[trained] - 1
+    # Slots without a test split keep their last weights.
+    no_test = trained & ~has_test
+    best_epoch[no_test] = epochs_run[no_test] - 1
+    return TrainResult(theta, train_error, test_error, best_epoch, epochs_run)

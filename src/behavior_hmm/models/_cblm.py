@@ -1,0 +1,338 @@
+"""CBLM: the complex-behavior learning model (thesis chapter 5).
+
+A CBLM's states are already learned behaviors (SBLMs or CBLMs). It learns only its
+own observation categories and the counted A, B, C, π between its components from
+demonstrations whose rows are tagged with the active sub-behavior. Components are
+never retrained or modified; the model file embeds their saved bytes unchanged.
+"""
+
+from __future__ import annotations
+
+import inspect
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from behavior_hmm.cobart import CobART
+from behavior_hmm.data import DEFAULT_CUTOFF_HZ, SENSOR_CHANNELS, Dataset, SignalPipeline
+from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError, NotFittedError
+from behavior_hmm.hmm import BehaviorHMM
+from behavior_hmm.models import _modelfile
+from behavior_hmm.models._goals import check_goal
+from behavior_hmm.models._sblm import (
+    SBLM,
+    _cobart_from,
+    _cobart_params,
+    _jsonable_params,
+    _prefixed,
+)
+
+FloatArray = NDArray[np.float64]
+
+#: Channels a goal can be stated on, in order of preference.
+GOAL_CHANNELS = ("angle", "distance")
+
+
+def _component_name(model: Any) -> str:
+    return str(getattr(model, "behavior_", "")) or type(model).__name__.lower()
+
+
+class CBLM:
+    """Complex-behavior learning model: learned behaviors as states of a Behavior-HMM.
+
+    Parameters
+    ----------
+    components
+        Fitted SBLMs or CBLMs; each is a state, named by its ``behavior_`` (the tag its
+        rows carry in the ``behavior`` column of the training data).
+    inputs
+        Sensor channels of the complex model's own observation categories.
+    observation_params
+        Overrides of CobART's observation preset (thesis table 4.2).
+    cutoff_hz
+        Low-pass cut-off (Hz) of the inputs, as for the SBLM.
+    counting, smoothing, path_self_loops
+        Behavior-HMM estimation options.
+    random_state
+        Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
+
+    Attributes
+    ----------
+    names_ : list of str
+        Component names, in state order.
+    pipeline_, observations_, hmm_
+        As for the SBLM (no motion primitives or generators of its own).
+    command_scale_ : float
+        Largest absolute command in the complex demonstrations (for evaluation).
+    """
+
+    kind = "CBLM"
+
+    def __init__(
+        self,
+        components: Sequence[Any] = (),
+        inputs: Sequence[str] = ("distance", "angle"),
+        *,
+        observation_params: Mapping[str, Any] | None = None,
+        cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
+        counting: str = "steps",
+        smoothing: float = 0.0,
+        path_self_loops: str = "drop",
+        random_state: int = 0,
+    ) -> None:
+        self.components = components
+        self.inputs = inputs
+        self.observation_params = observation_params
+        self.cutoff_hz = cutoff_hz
+        self.counting = counting
+        self.smoothing = smoothing
+        self.path_self_loops = path_self_loops
+        self.random_state = random_state
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Constructor parameters by name (scikit-learn convention)."""
+        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
+        return {name: getattr(self, name) for name in names}
+
+    def _checked(self) -> tuple[tuple[str, ...], list[Any], list[str]]:
+        inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
+        for name in inputs:
+            if name not in SENSOR_CHANNELS:
+                raise ConfigError(
+                    f"unknown input '{name}'; choose from {', '.join(SENSOR_CHANNELS)}"
+                )
+        components = list(self.components)
+        if not components:
+            raise ConfigError("a CBLM needs at least one component behavior")
+        for c in components:
+            if getattr(c, "kind", None) not in ("SBLM", "CBLM") or not hasattr(c, "hmm_"):
+                raise ConfigError("every component must be a fitted SBLM or CBLM")
+        names = [_component_name(c) for c in components]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"component names must be distinct, got {names}")
+        return inputs, components, names
+
+    def fit(self, dataset: Dataset) -> CBLM:
+        """Learn observation categories and the counted A, B, C, π between components.
+
+        Parameters
+        ----------
+        dataset
+            Demonstrations of the complex behavior whose ``behavior`` column names the
+            active component on every row.
+        """
+        inputs, components, names = self._checked()
+        if not isinstance(dataset, Dataset):
+            raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        tags = dataset.behavior
+        if tags is None:
+            raise DatasetError(
+                "complex demonstrations need a 'behavior' column naming the active component",
+                field="behavior",
+            )
+        index = {name: i for i, name in enumerate(names)}
+        states = np.empty(len(tags), dtype=np.int64)
+        for row, tag in enumerate(tags):
+            if tag not in index:
+                episode = int(np.searchsorted(dataset.offsets, row, side="right") - 1)
+                raise DatasetError(
+                    f"behavior '{tag}' is not a component (components: {', '.join(names)})",
+                    episode=int(dataset.episode_ids[episode]),
+                    row=int(row - dataset.offsets[episode]),
+                    field="behavior",
+                )
+            states[row] = index[tag]
+        pipeline = SignalPipeline(inputs, self.cutoff_hz)
+        x = pipeline.transform(dataset)
+        lengths = dataset.lengths
+        obs = CobART.observations(**dict(self.observation_params or {})).fit(x, lengths)
+        obs = obs.compacted(x, lengths)
+        hmm = BehaviorHMM(
+            n_states=len(components),
+            n_observations=obs.n_categories_,
+            counting=self.counting,
+            smoothing=self.smoothing,
+            path_self_loops=self.path_self_loops,
+        ).fit(states, obs.labels_, lengths)
+        raw = dataset.columns(inputs)
+        finals = dataset.offsets[1:] - 1
+        self.inputs_ = inputs
+        self.components_ = components
+        self.names_ = names
+        self.pipeline_ = pipeline
+        self.observations_ = obs
+        self.hmm_ = hmm
+        self.command_scale_ = float(np.max(np.abs(dataset.commands))) or 1.0
+        self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
+        self.default_goal_ = {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
+        if not self.default_goal_:
+            self.default_goal_ = {inputs[0]: self.rest_values_[inputs[0]]}
+        self.max_steps_ = int(
+            max(1000, 2 * int(lengths.max()), sum(c.max_steps_ for c in components))
+        )
+        self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
+        return self
+
+    # ----------------------------------------------------------------- queries
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "hmm_"):
+            raise NotFittedError("this CBLM is not fitted yet; call fit first")
+
+    def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
+        """The goal in physical units on this model's inputs (default: angle 0, distance 0)."""
+        self._check_fitted()
+        if goal is None:
+            return dict(self.default_goal_)
+        return check_goal(goal, self.inputs_)
+
+    def goal_window(self, goal: Mapping[str, float]) -> FloatArray:
+        """A still observation window at ``goal`` (normalized), other inputs at rest."""
+        values = [goal.get(c, self.rest_values_[c]) for c in self.inputs_]
+        reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
+        return np.repeat(reading, int(self.observations_.window), axis=0)
+
+    def goal_category(self, goal: Mapping[str, float]) -> int:
+        """Observation category of a still window at ``goal``."""
+        self._check_fitted()
+        return int(np.argmax(self.observations_.score_window(self.goal_window(goal))))
+
+    def category_values(self, category: int) -> dict[str, float]:
+        """Physical value of each input at the end of an observation category's prototype."""
+        self._check_fitted()
+        ranges = np.array([self.pipeline_.ranges[c] for c in self.inputs_], dtype=np.float64)
+        proto = self.observations_.prototypes_physical(ranges)[category, -1]
+        return {c: float(proto[j]) for j, c in enumerate(self.inputs_)}
+
+    def component_goal(
+        self, component: int, category: int, final_goal: Mapping[str, float]
+    ) -> dict[str, float]:
+        """Intermediate goal handed to a component: the exit observation in its channels.
+
+        Channels the complex goal states take the goal's value when the exit observation
+        is the goal category itself; otherwise the exit category's prototype values. Only
+        channels that are goal channels of the component (those of its default goal) are
+        handed down, e.g. ``{angle 0, distance 0.8}`` -> turn gets ``angle = 0``.
+        """
+        model = self.components_[component]
+        values = self.category_values(category)
+        if category == self.goal_category(final_goal):
+            values.update(final_goal)
+        goal = {}
+        for channel in model.default_goal_:
+            if channel in values:
+                goal[channel] = values[channel]
+            else:
+                goal[channel] = model.default_goal_[channel]
+        if "angle" in goal and abs(goal["angle"]) <= 3.0:
+            goal["angle"] = 0.0  # an aligned exit observation means "face the object"
+        if "distance" in goal:
+            goal["distance"] = float(np.clip(goal["distance"], 0.0, 1.2))
+        return goal
+
+    # -------------------------------------------------------------- generation
+    def generate(
+        self,
+        env: Any,
+        start: Mapping[str, float] | None = None,
+        goal: Mapping[str, float] | None = None,
+        **kwargs: Any,
+    ) -> Any:
+        """Perform the complex behavior (see :func:`behavior_hmm.runtime.run_behavior`)."""
+        from behavior_hmm.runtime import run_behavior
+
+        return run_behavior(self, env, start=start, goal=goal, **kwargs)
+
+    # --------------------------------------------------------------- save/load
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the model (own tables + the components' files embedded byte for byte)."""
+        self._check_fitted()
+        arrays: dict[str, np.ndarray] = {}
+        for name, arr in self.hmm_.to_arrays().items():
+            arrays[f"hmm.{name}"] = arr
+        arrays["obs.prototypes"] = self.observations_.prototypes_
+        arrays["obs.counts"] = self.observations_.counts_
+        arrays["obs.dcm_scale"] = self.observations_.dcm_scale_
+        for i, component in enumerate(self.components_):
+            arrays[f"component.{i}"] = np.frombuffer(_model_bytes(component), dtype=np.uint8)
+        state = {
+            "inputs": list(self.inputs_),
+            "names": list(self.names_),
+            "kinds": [c.kind for c in self.components_],
+            "pipeline": self.pipeline_.to_dict(),
+            "observations": _cobart_params(self.observations_),
+            "hmm": self.hmm_.params,
+            "command_scale": self.command_scale_,
+            "rest_values": self.rest_values_,
+            "default_goal": self.default_goal_,
+            "max_steps": self.max_steps_,
+            "behavior": self.behavior_,
+        }
+        params = _jsonable_params({k: v for k, v in self.get_params().items() if k != "components"})
+        _modelfile.dump(path, self.kind, params, state, arrays)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> CBLM:
+        """Read a model written by :meth:`save`, components included; all validated."""
+        header, arrays = _modelfile.load(path)
+        if header["kind"] != cls.kind:
+            raise ModelFileError(f"{path}: holds a {header['kind']}, not a {cls.kind}")
+        try:
+            return cls._from_state(header["params"], header["state"], arrays)
+        except ModelFileError as err:
+            raise ModelFileError(f"{path}: {err}") from None
+        except (ConfigError, KeyError, TypeError, ValueError, IndexError) as err:
+            raise ModelFileError(f"{path}: invalid model contents ({err})") from None
+
+    @classmethod
+    def _from_state(
+        cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
+    ) -> CBLM:
+        kinds = list(state["kinds"])
+        components = []
+        for i, kind in enumerate(kinds):
+            raw = _modelfile.check_array(arrays, f"component.{i}", ndim=1, kind="u")
+            loader = {"SBLM": SBLM, "CBLM": CBLM}.get(kind)
+            if loader is None:
+                raise ModelFileError(f"component {i} has unknown kind {kind!r}")
+            components.append(_load_bytes(loader, raw.tobytes()))
+        model = cls(components=components, **params)
+        inputs, _, names = model._checked()
+        if list(names) != list(state["names"]) or list(inputs) != list(state["inputs"]):
+            raise ModelFileError("component names or inputs do not match the model's state")
+        pipeline = SignalPipeline.from_dict(state["pipeline"])
+        obs = _cobart_from(state["observations"], arrays, "obs", len(inputs))
+        hmm = BehaviorHMM.from_arrays(_prefixed(arrays, "hmm"), state["hmm"])
+        if hmm.n_states_ != len(components) or hmm.n_observations_ != obs.n_categories_:
+            raise ModelFileError("HMM sizes do not match the components and categories")
+        model.inputs_ = inputs
+        model.components_ = components
+        model.names_ = names
+        model.pipeline_ = pipeline
+        model.observations_ = obs
+        model.hmm_ = hmm
+        model.command_scale_ = float(state["command_scale"])
+        model.rest_values_ = {c: float(state["rest_values"][c]) for c in inputs}
+        model.default_goal_ = check_goal(state["default_goal"], inputs)
+        model.max_steps_ = int(state["max_steps"])
+        model.behavior_ = str(state["behavior"])
+        return model
+
+
+def _model_bytes(model: Any) -> bytes:
+    """The exact bytes ``model.save`` writes (components are embedded unchanged)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "component.bhmm"
+        model.save(path)
+        return path.read_bytes()
+
+
+def _load_bytes(loader: Any, data: bytes) -> Any:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "component.bhmm"
+        path.write_bytes(data)
+        return loader.load(path)

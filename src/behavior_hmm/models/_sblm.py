@@ -1,0 +1,515 @@
+"""SBLM: the simple-behavior learning model (thesis chapter 4)."""
+
+from __future__ import annotations
+
+import inspect
+import os
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from behavior_hmm.cobart import CobART
+from behavior_hmm.data import (
+    DEFAULT_CUTOFF_HZ,
+    SENSOR_CHANNELS,
+    CommandScaler,
+    Dataset,
+    SignalPipeline,
+)
+from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
+from behavior_hmm.generators import MotionGenerators, make_windows
+from behavior_hmm.hmm import BehaviorHMM
+from behavior_hmm.models import _modelfile
+from behavior_hmm.models._goals import check_goal
+
+FloatArray = NDArray[np.float64]
+
+_DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
+
+
+def command_features(commands: FloatArray, lengths: Sequence[int], history: int) -> FloatArray:
+    """Previous ``history`` normalized commands per row (zeros before an episode starts).
+
+    Row ``t`` holds ``[u[t-history], ..., u[t-1]]`` flattened (left, right per step),
+    the efference copy a motion generator reads beside its sensor window.
+    """
+    n = commands.shape[0]
+    out = np.zeros((n, 2 * history), dtype=np.float64)
+    start = 0
+    for length in lengths:
+        stop = start + int(length)
+        for lag in range(1, history + 1):
+            col = 2 * (history - lag)
+            if length > lag:
+                out[start + lag : stop, col : col + 2] = commands[start : stop - lag]
+        start = stop
+    return out
+
+
+def margin_rows(
+    states: NDArray[np.int64], lengths: Sequence[int], margin: int
+) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
+    """Training rows of every primitive: its own rows plus ``margin`` rows either side.
+
+    Each run of one primitive inside an episode is widened by up to ``margin`` control
+    cycles before and after (clipped to the episode), so a generator also sees how its
+    primitive is entered and left. Returns the row indices and the primitive of each.
+    """
+    rows: list[NDArray[np.intp]] = []
+    labels: list[NDArray[np.int64]] = []
+    start = 0
+    for length in lengths:
+        stop = start + int(length)
+        s = states[start:stop]
+        cuts = np.flatnonzero(np.diff(s)) + 1
+        bounds = np.r_[0, cuts, s.size]
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            lo = max(0, int(a) - margin)
+            hi = min(s.size, int(b) + margin)
+            rows.append(np.arange(start + lo, start + hi))
+            labels.append(np.full(hi - lo, s[a], dtype=np.int64))
+        start = stop
+    return np.concatenate(rows), np.concatenate(labels)
+
+
+class SBLM:
+    """Simple-behavior learning model: CobART + Behavior-HMM + motion generators.
+
+    Parameters
+    ----------
+    inputs
+        Sensor channels the model reads, e.g. ``("angle",)`` or ``("distance", "angle")``.
+    primitive_params, observation_params
+        Overrides of CobART's motion-primitive / observation presets (thesis table 4.2).
+    cutoff_hz
+        Low-pass cut-off (Hz) applied to the inputs in training and at run time.
+    hidden, learning_rate, momentum, epochs, batch_size
+        Motion-generator training (thesis table 6.2 defaults: hidden 5/10/15 units for
+        1/2/3 channels, lr 0.01, momentum 0.4).
+    command_history
+        Previous commands fed to each generator beside its sensor window (an efference
+        copy, see docs/algorithms.md); 0 gives the thesis's sensor-only networks.
+    generator_output
+        ``"command"``: each network outputs the normalized wheel commands (thesis);
+        ``"delta"``: it outputs the change of the commands since the last cycle, in
+        units of the largest change seen in training (needs ``command_history >= 1``;
+        the previous command and its last change are fed as inputs).
+    state_decoding
+        ``"plan"``: the active primitive is the first state of the Viterbi decoding of
+        the planned path (thesis Algorithm 1, prior π); ``"history"``: the prior is the
+        forward Viterbi message of the observations seen so far in this run.
+    counting, smoothing, path_self_loops
+        Behavior-HMM estimation options (see :class:`~behavior_hmm.hmm.BehaviorHMM`).
+    random_state
+        Seed of every random choice (generator initialisation and splits).
+
+    Attributes
+    ----------
+    pipeline_ : SignalPipeline
+    primitives_ : CobART
+        Motion-primitive network (compacted to the categories that win on the data).
+    observations_ : CobART
+        Observation-category network (compacted likewise).
+    hmm_ : BehaviorHMM
+    generators_ : MotionGenerators
+    command_scale_ : float
+        Largest absolute wheel command (rad/s) in the training demonstrations.
+    rest_values_ : dict
+        Median final reading of each input channel over the demonstrations.
+    default_goal_ : dict
+        Goal used when none is given: where the demonstrations end.
+    max_steps_ : int
+        Step limit of a generation (twice the longest demonstration, at least 500).
+    """
+
+    kind = "SBLM"
+
+    def __init__(
+        self,
+        inputs: Sequence[str] = ("angle",),
+        *,
+        primitive_params: Mapping[str, Any] | None = None,
+        observation_params: Mapping[str, Any] | None = None,
+        cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
+        hidden: int | tuple[int, ...] | None = None,
+        learning_rate: float = 0.01,
+        momentum: float = 0.4,
+        epochs: int = 200,
+        batch_size: int = 32,
+        command_history: int = 1,
+        generator_output: str = "delta",
+        state_decoding: str = "history",
+        primitive_recognition: bool = False,
+        history_noise: float = 0.0,
+        onset_clock: int = 0,
+        window_noise: float = 0.0,
+        rate_limit: float | None = None,
+        segment_margin: int = 0,
+        counting: str = "changes",
+        smoothing: float = 0.0,
+        path_self_loops: str = "drop",
+        random_state: int = 0,
+    ) -> None:
+        self.inputs = inputs
+        self.primitive_params = primitive_params
+        self.observation_params = observation_params
+        self.cutoff_hz = cutoff_hz
+        self.hidden = hidden
+        self.learning_rate = learning_rate
+        self.momentum = momentum
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.command_history = command_history
+        self.generator_output = generator_output
+        self.state_decoding = state_decoding
+        self.primitive_recognition = primitive_recognition
+        self.history_noise = history_noise
+        self.onset_clock = onset_clock
+        self.window_noise = window_noise
+        self.rate_limit = rate_limit
+        self.segment_margin = segment_margin
+        self.counting = counting
+        self.smoothing = smoothing
+        self.path_self_loops = path_self_loops
+        self.random_state = random_state
+
+    # ------------------------------------------------------------------ params
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Constructor parameters by name (scikit-learn convention)."""
+        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
+        return {name: getattr(self, name) for name in names}
+
+    def set_params(self, **params: Any) -> SBLM:
+        """Set constructor parameters; returns ``self``."""
+        valid = self.get_params()
+        for name, value in params.items():
+            if name not in valid:
+                raise ConfigError(f"unknown parameter {name!r} for {type(self).__name__}")
+            setattr(self, name, value)
+        return self
+
+    def _checked_inputs(self) -> tuple[str, ...]:
+        inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
+        if not inputs:
+            raise ConfigError("inputs must name at least one sensor channel")
+        for name in inputs:
+            if name not in SENSOR_CHANNELS:
+                raise ConfigError(
+                    f"unknown input '{name}'; choose from {', '.join(SENSOR_CHANNELS)}"
+                )
+        if len(set(inputs)) != len(inputs):
+            raise ConfigError(f"inputs repeat a channel: {inputs}")
+        if self.generator_output not in ("command", "delta"):
+            raise ConfigError(
+                f"generator_output must be 'command' or 'delta', got {self.generator_output!r}"
+            )
+        if self.state_decoding not in ("plan", "history"):
+            raise ConfigError(
+                f"state_decoding must be 'plan' or 'history', got {self.state_decoding!r}"
+            )
+        if self.generator_output == "delta" and self.command_history < 1:
+            raise ConfigError("generator_output='delta' needs command_history >= 1")
+        if not isinstance(self.command_history, int) or self.command_history < 0:
+            raise ConfigError(
+                f"command_history must be an integer >= 0, got {self.command_history}"
+            )
+        return inputs
+
+    # --------------------------------------------------------------------- fit
+    def fit(self, dataset: Dataset) -> SBLM:
+        """Learn primitives, observations, the Behavior-HMM and the generators.
+
+        Parameters
+        ----------
+        dataset
+            Demonstrations of one behavior (every episode from rest to the goal).
+
+        Returns
+        -------
+        SBLM
+            ``self``.
+        """
+        inputs = self._checked_inputs()
+        if not isinstance(dataset, Dataset):
+            raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        pipeline = SignalPipeline(inputs, self.cutoff_hz)
+        x = pipeline.transform(dataset)
+        lengths = dataset.lengths
+        prim = CobART.motion_primitives(**dict(self.primitive_params or {})).fit(x, lengths)
+        prim = prim.compacted(x, lengths)
+        obs = CobART.observations(**dict(self.observation_params or {})).fit(x, lengths)
+        obs = obs.compacted(x, lengths)
+        states = prim.labels_
+        observations = obs.labels_
+        self.inputs_ = inputs
+        self.primitives_ = prim
+        hmm = BehaviorHMM(
+            n_states=prim.n_categories_,
+            n_observations=obs.n_categories_,
+            counting=self.counting,
+            smoothing=self.smoothing,
+            path_self_loops=self.path_self_loops,
+        ).fit(states, observations, lengths)
+        scaler = CommandScaler().fit(dataset.commands)
+        y = scaler.transform(dataset.commands)
+        prev = command_features(y, lengths, 1)
+        step = y - prev
+        delta_scale = float(np.max(np.abs(step))) or 1.0
+        features = self._features(x, y, lengths, prim.window, delta_scale)
+        target = y if self.generator_output == "command" else np.clip(step / delta_scale, -1, 1)
+        gen_states = states
+        groups = np.repeat(dataset.episode_ids, lengths)
+        if self.segment_margin > 0:
+            rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
+            features, target, groups = features[rows], target[rows], groups[rows]
+        if self.history_noise > 0 or self.window_noise > 0:
+            features, target, gen_states, groups = self._noisy_copies(
+                features, target, gen_states, groups
+            )
+        gens = MotionGenerators(
+            window=int(prim.window),
+            hidden=self._hidden(len(inputs)),
+            learning_rate=self.learning_rate,
+            momentum=self.momentum,
+            epochs=self.epochs,
+            batch_size=self.batch_size,
+            random_state=self.random_state,
+        ).fit(
+            features,
+            target,
+            gen_states,
+            n_primitives=prim.n_categories_,
+            groups=groups,
+        )
+        finals = dataset.offsets[1:] - 1
+        raw = dataset.columns(inputs)
+        self.inputs_ = inputs
+        self.pipeline_ = pipeline
+        self.primitives_ = prim
+        self.observations_ = obs
+        self.hmm_ = hmm
+        self.generators_ = gens
+        self.command_scale_ = float(scaler.scale_)
+        self.delta_scale_ = delta_scale
+        self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
+        self.default_goal_ = self._default_goal(inputs)
+        self.max_steps_ = int(max(500, 2 * int(lengths.max())))
+        self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
+        self.train_states_ = states
+        self.train_observations_ = observations
+        return self
+
+    def _hidden(self, n_channels: int) -> int | tuple[int, ...]:
+        if self.hidden is not None:
+            return self.hidden
+        return 5 * n_channels  # thesis table 6.2: 5 / 10 / 15 units for 1 / 2 / 3 channels
+
+    def _features(
+        self,
+        x: FloatArray,
+        y: FloatArray,
+        lengths: Sequence[int],
+        window: int,
+        delta_scale: float,
+    ) -> FloatArray:
+        """Generator inputs: sensor windows, then the efference copy (see the runtime)."""
+        parts = [make_windows(x, lengths, window)]
+        if self.command_history > 0:
+            parts.append(command_features(y, lengths, self.command_history))
+            if self.generator_output == "delta":
+                # previous command and its last change (in units of delta_scale)
+                prev2 = command_features(y, lengths, 2)
+                parts.append(np.clip((prev2[:, 2:] - prev2[:, :2]) / delta_scale, -1, 1))
+        if self.onset_clock > 0:
+            steps = np.concatenate([np.arange(int(n)) for n in lengths])
+            parts.append((np.minimum(steps, self.onset_clock) / self.onset_clock)[:, None])
+        return np.hstack(parts) if len(parts) > 1 else parts[0]
+
+    def _noisy_copies(
+        self, features: FloatArray, target: FloatArray, states: Any, groups: Any
+    ) -> tuple[FloatArray, FloatArray, Any, Any]:
+        """Append a copy of every row whose efference copy carries Gaussian noise."""
+        rng = np.random.default_rng(self.random_state)
+        n_sensor = len(self.inputs_) * int(self.primitives_.window)
+        noisy = features.copy()
+        n = features.shape[0]
+        if self.window_noise > 0:
+            noisy[:, :n_sensor] += rng.normal(0.0, float(self.window_noise), size=(n, 1))
+        if self.history_noise > 0 and self.command_history > 0:
+            noise = rng.normal(0.0, float(self.history_noise), size=(n, 1))
+            noisy[:, n_sensor : n_sensor + 2 * self.command_history] += noise
+        return (
+            np.vstack([features, noisy]),
+            np.vstack([target, target]),
+            np.concatenate([states, states]),
+            np.concatenate([groups, groups]),
+        )
+
+    def _default_goal(self, inputs: tuple[str, ...]) -> dict[str, float]:
+        goal = {c: v for c, v in _DEFAULT_GOALS.items() if c in inputs}
+        if not goal:
+            goal = {inputs[0]: self.rest_values_[inputs[0]]}
+        return goal
+
+    # ----------------------------------------------------------------- queries
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "hmm_"):
+            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit first")
+
+    def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
+        """The goal in physical units on this model's input channels (default: demos' end)."""
+        self._check_fitted()
+        if goal is None:
+            return dict(self.default_goal_)
+        return check_goal(goal, self.inputs_)
+
+    def goal_window(self, goal: Mapping[str, float]) -> FloatArray:
+        """A still observation window at ``goal`` (normalized), other inputs at rest."""
+        self._check_fitted()
+        values = [goal.get(c, self.rest_values_[c]) for c in self.inputs_]
+        reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
+        return np.repeat(reading, int(self.observations_.window), axis=0)
+
+    def goal_category(self, goal: Mapping[str, float]) -> int:
+        """Observation category of a still window at ``goal`` (thesis Algorithm 1, o_g)."""
+        scores = self.observations_.score_window(self.goal_window(goal))
+        return int(np.argmax(scores))
+
+    # -------------------------------------------------------------- generation
+    def generate(
+        self,
+        env: Any,
+        start: Mapping[str, float] | None = None,
+        goal: Mapping[str, float] | None = None,
+        **kwargs: Any,
+    ) -> Any:
+        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop, 16 ms).
+
+        See :func:`behavior_hmm.runtime.run_behavior` for the keyword arguments and the
+        returned :class:`~behavior_hmm.runtime.Trace`.
+        """
+        from behavior_hmm.runtime import run_behavior
+
+        return run_behavior(self, env, start=start, goal=goal, **kwargs)
+
+    # --------------------------------------------------------------- save/load
+    def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        self._check_fitted()
+        arrays: dict[str, np.ndarray] = {}
+        for prefix, part in (("hmm", self.hmm_), ("gen", self.generators_)):
+            for name, arr in part.to_arrays().items():
+                arrays[f"{prefix}.{name}"] = arr
+        for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
+            arrays[f"{prefix}.prototypes"] = net.prototypes_
+            arrays[f"{prefix}.counts"] = net.counts_
+            arrays[f"{prefix}.dcm_scale"] = net.dcm_scale_
+        state = {
+            "inputs": list(self.inputs_),
+            "pipeline": self.pipeline_.to_dict(),
+            "primitives": _cobart_params(self.primitives_),
+            "observations": _cobart_params(self.observations_),
+            "hmm": self.hmm_.params,
+            "generators": self.generators_.get_params(),
+            "command_scale": self.command_scale_,
+            "delta_scale": self.delta_scale_,
+            "rest_values": self.rest_values_,
+            "default_goal": self.default_goal_,
+            "max_steps": self.max_steps_,
+            "behavior": self.behavior_,
+        }
+        return state, arrays
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the model to ``path`` (zip of JSON + arrays, no pickle; atomic)."""
+        state, arrays = self._state()
+        _modelfile.dump(path, self.kind, _jsonable_params(self.get_params()), state, arrays)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> SBLM:
+        """Read a model written by :meth:`save`; everything is validated."""
+        header, arrays = _modelfile.load(path)
+        if header["kind"] != cls.kind:
+            raise ModelFileError(f"{path}: holds a {header['kind']}, not an {cls.kind}")
+        try:
+            return cls._from_state(header["params"], header["state"], arrays)
+        except ModelFileError as err:
+            raise ModelFileError(f"{path}: {err}") from None
+        except (ConfigError, KeyError, TypeError, ValueError, IndexError) as err:
+            raise ModelFileError(f"{path}: invalid model contents ({err})") from None
+
+    @classmethod
+    def _from_state(
+        cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
+    ) -> SBLM:
+        model = cls(**params)
+        inputs = model._checked_inputs()
+        if list(inputs) != list(state["inputs"]):
+            raise ModelFileError("inputs in params and state disagree")
+        pipeline = SignalPipeline.from_dict(state["pipeline"])
+        if pipeline.channels != inputs:
+            raise ModelFileError("pipeline channels do not match the inputs")
+        prim = _cobart_from(state["primitives"], arrays, "prim", len(inputs))
+        obs = _cobart_from(state["observations"], arrays, "obs", len(inputs))
+        hmm = BehaviorHMM.from_arrays(_prefixed(arrays, "hmm"), state["hmm"])
+        gens = MotionGenerators.from_arrays(_prefixed(arrays, "gen"), **state["generators"])
+        if hmm.n_states_ != prim.n_categories_ or hmm.n_observations_ != obs.n_categories_:
+            raise ModelFileError("HMM sizes do not match the CobART categories")
+        if gens.n_primitives_ != prim.n_categories_:
+            raise ModelFileError("generator count does not match the primitives")
+        scale = float(state["command_scale"])
+        if not np.isfinite(scale) or scale <= 0:
+            raise ModelFileError("command_scale must be a positive number")
+        model.inputs_ = inputs
+        model.pipeline_ = pipeline
+        model.primitives_ = prim
+        model.observations_ = obs
+        model.hmm_ = hmm
+        model.generators_ = gens
+        model.command_scale_ = scale
+        model.delta_scale_ = float(state["delta_scale"])
+        if not np.isfinite(model.delta_scale_) or model.delta_scale_ <= 0:
+            raise ModelFileError("delta_scale must be a positive number")
+        model.rest_values_ = {c: float(state["rest_values"][c]) for c in inputs}
+        model.default_goal_ = check_goal(state["default_goal"], inputs)
+        model.max_steps_ = int(state["max_steps"])
+        model.behavior_ = str(state["behavior"])
+        return model
+
+
+def _cobart_params(net: CobART) -> dict[str, Any]:
+    params = net.get_params()
+    params["dcm_scale"] = "auto"  # the fitted scale is stored as an array
+    return params
+
+
+def _cobart_from(
+    params: Mapping[str, Any], arrays: Mapping[str, np.ndarray], prefix: str, n_channels: int
+) -> CobART:
+    protos = _modelfile.check_array(arrays, f"{prefix}.prototypes", ndim=3)
+    counts = _modelfile.check_array(arrays, f"{prefix}.counts", ndim=1, kind="iu")
+    scale = _modelfile.check_array(arrays, f"{prefix}.dcm_scale", ndim=1)
+    if protos.shape[2] != n_channels or scale.shape[0] != n_channels:
+        raise ModelFileError(f"{prefix} CobART has the wrong number of channels")
+    if protos.shape[0] == 0 or counts.shape[0] != protos.shape[0]:
+        raise ModelFileError(f"{prefix} CobART prototypes and counts disagree")
+    net = CobART(**params)
+    net.set_state(protos, counts, scale)
+    return net
+
+
+def _prefixed(arrays: Mapping[str, np.ndarray], prefix: str) -> dict[str, np.ndarray]:
+    head = prefix + "."
+    return {k[len(head) :]: v for k, v in arrays.items() if k.startswith(head)}
+
+
+def _jsonable_params(params: Mapping[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        if isinstance(value, tuple):
+            value = list(value)
+        if isinstance(value, Mapping):
+            value = dict(value)
+        out[key] = value
+    return out

@@ -1,0 +1,144 @@
+"""Closed-loop execution of a complex behavior: delegation to component behaviors."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from behavior_hmm.data import SENSOR_CHANNELS
+from behavior_hmm.errors import UnreachableGoalError
+from behavior_hmm.models._goals import TOLERANCES, within_tolerance
+from behavior_hmm.runtime._simple import StepOutput, make_controller
+
+FloatArray = NDArray[np.float64]
+
+_ZERO = np.zeros(2)
+
+
+class ComplexController:
+    """Runs a CBLM: plans over its own observation categories, delegates to components.
+
+    Each cycle it categorizes the current observation window with its own CobART,
+    plans the most likely observation path to the goal category and decodes the
+    component sequence (Viterbi). The first planned component that has not yet
+    reached its intermediate goal runs, with the exit observation of its segment as
+    its goal, in the component's own channels. Because the plan is remade every
+    cycle, a push that undoes a finished component's work brings that component back.
+    The run ends when the goal category is reached and the readings lie within the
+    goal's physical tolerance, or when the plan has nothing left to run and the
+    tolerance holds.
+
+    Parameters
+    ----------
+    model
+        A fitted :class:`~behavior_hmm.models.CBLM`.
+    goal
+        Goal in physical units on the CBLM's inputs; ``None`` uses its default.
+    name
+        Name recorded in traces when this CBLM is itself a component.
+    """
+
+    def __init__(self, model: Any, goal: Mapping[str, float] | None, name: str = "") -> None:
+        self.model = model
+        self.name = name
+        self.goal = model.resolve_goal(goal)
+        self.goal_category = model.goal_category(self.goal)
+        self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
+        self._channels = model.inputs_
+        self._pipe = model.pipeline_.online()
+        self._live = model.observations_.stream()
+        norm = model.pipeline_.normalizer
+        self._lo = np.asarray(norm._lo, dtype=np.float64)
+        self._gain = np.asarray(norm._gain, dtype=np.float64)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the previous run."""
+        self._pipe.reset()
+        self._live.reset()
+        self._active = -1
+        self._child: Any = None
+        self._finished: dict[int, dict[str, float]] = {}
+
+    def _values(self, reading: FloatArray, x: FloatArray) -> dict[str, float]:
+        filtered = (x + 1.0) / self._gain + self._lo
+        values = dict(zip(self._channels, filtered.tolist(), strict=True))
+        for j, name in enumerate(SENSOR_CHANNELS):
+            values.setdefault(name, float(reading[j]))
+        return values
+
+    def step(self, reading: FloatArray) -> StepOutput:
+        """Decide the command for one reading (physical units, SENSOR_CHANNELS order)."""
+        x = self._pipe.step(reading[self._idx])
+        category, novel, _ = self._live.update(x)
+        values = self._values(reading, x)
+        at_goal = within_tolerance(values, self.goal)
+        if category == self.goal_category and at_goal:
+            return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
+        # A finished component whose goal no longer holds (e.g. after a push) runs again.
+        for comp, sub_goal in list(self._finished.items()):
+            if not _within(values, sub_goal, 2.0):
+                del self._finished[comp]
+        plan = None
+        try:
+            plan = self.model.hmm_.plan(category, self.goal_category)
+            segments = [s for s in plan.segments if s.state not in self._finished]
+        except UnreachableGoalError:
+            if self._child is None:
+                raise
+            segments = []
+        if not segments:
+            if self._child is None or self._active in self._finished:
+                if at_goal:  # nothing left to run and the goal holds
+                    return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
+                # the plan is exhausted short of the goal: the last component takes the goal
+                comp = self._active if plan is None else plan.segments[-1].state
+                self._finished.pop(comp, None)
+                return self._delegate(comp, self.goal, reading, category, novel)
+            return self._run_child(reading, category, novel, changed=False)
+        segment = segments[0]
+        sub_goal = self.model.component_goal(segment.state, segment.exit_observation, self.goal)
+        return self._delegate(segment.state, sub_goal, reading, category, novel)
+
+    def _delegate(
+        self,
+        comp: int,
+        sub_goal: dict[str, float],
+        reading: FloatArray,
+        category: int,
+        novel: bool,
+    ) -> StepOutput:
+        changed = comp != self._active
+        if changed:
+            component = self.model.components_[comp]
+            self._child = make_controller(component, sub_goal, name=self.model.names_[comp])
+            self._child.reset()
+            self._active = comp
+        return self._run_child(reading, category, novel, changed)
+
+    def _run_child(
+        self, reading: FloatArray, category: int, novel: bool, changed: bool
+    ) -> StepOutput:
+        try:
+            out = self._child.step(reading)
+        except UnreachableGoalError:
+            # the component cannot reach its intermediate goal from here: skip it
+            self._finished[self._active] = dict(self._child.goal)
+            return StepOutput(_ZERO, category, novel, self._active, self.name, changed, False)
+        if out.done:
+            self._finished[self._active] = dict(self._child.goal)
+        label = out.component or self.model.names_[self._active]
+        return StepOutput(out.command, category, novel, self._active, label, changed, False)
+
+
+def _within(values: Mapping[str, float], goal: Mapping[str, float], factor: float) -> bool:
+    for name, target in goal.items():
+        error = values[name] - target
+        if name == "angle":
+            error = (error + 180.0) % 360.0 - 180.0
+        if abs(error) > factor * TOLERANCES[name]:
+            return False
+    return True

@@ -1,0 +1,205 @@
+"""Closed-loop execution of a simple behavior (thesis Algorithm 1)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from behavior_hmm.data import SENSOR_CHANNELS
+from behavior_hmm.errors import UnreachableGoalError
+from behavior_hmm.models import SBLM
+from behavior_hmm.models._goals import within_tolerance
+
+FloatArray = NDArray[np.float64]
+
+_ZERO = np.zeros(2)
+
+
+class StepOutput(NamedTuple):
+    """What a controller decided in one control cycle."""
+
+    command: FloatArray
+    observation: int
+    novel: bool
+    state: int
+    component: str
+    plan_changed: bool
+    done: bool
+
+
+class SimpleController:
+    """Runs an SBLM toward a goal one 16 ms reading at a time.
+
+    Each cycle: filter and normalize the reading exactly as in training, categorize
+    the current observation window (CobART, no learning), re-plan the most likely
+    observation path to the goal category and decode its primitives (cached per
+    observation pair), take the plan's first primitive, and command the wheels from
+    that primitive's motion generator. It stops when the goal category is reached
+    *and* the filtered readings lie within the goal's physical tolerance.
+
+    Parameters
+    ----------
+    model
+        A fitted :class:`~behavior_hmm.models.SBLM`.
+    goal
+        Goal in physical units on the model's inputs; ``None`` uses the model's default.
+    name
+        Component name recorded in traces (set by a complex model).
+    """
+
+    def __init__(self, model: SBLM, goal: Mapping[str, float] | None, name: str = "") -> None:
+        self.model = model
+        self.name = name
+        self.goal = model.resolve_goal(goal)
+        self.goal_category = model.goal_category(self.goal)
+        self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
+        self._channels = model.inputs_
+        self._pipe = model.pipeline_.online()
+        self._live = model.observations_.stream()
+        self._recognize = bool(model.primitive_recognition)
+        self._prim_live = model.primitives_.stream()
+        self._prim_miss = self._prim_live._pred.v  # 1 - score of every primitive (live)
+        self._hmm = model.hmm_
+        self._gens = model.generators_
+        self._scale = model.command_scale_
+        norm = model.pipeline_.normalizer
+        self._lo = np.asarray(norm._lo, dtype=np.float64)
+        self._gain = np.asarray(norm._gain, dtype=np.float64)
+        self._window = int(model.generators_.window)
+        self._history = int(model.command_history)
+        self._delta = model.generator_output == "delta"
+        self._delta_scale = float(model.delta_scale_)
+        self._use_history = model.state_decoding == "history"
+        self._log_A = model.hmm_.log_A_
+        self._log_B = model.hmm_.log_B_
+        self._log_pi = model.hmm_.log_pi_
+        n_ch = len(self._idx)
+        self._buf = np.zeros((n_ch, self._window))
+        self._clock = int(model.onset_clock)
+        rate = model.rate_limit
+        self._max_step = np.inf if rate is None else float(rate) * float(model.delta_scale_)
+        self._k = 0
+        self._prev = np.zeros(2)
+        extra = 2 * self._history + (2 if self._delta else 0) + (1 if self._clock else 0)
+        self._feat = np.zeros(n_ch * self._window + extra)
+        self._started = False
+        self._state = -1
+        self._last_obs = -1
+        self._alpha = self._log_pi.copy()
+        self._prior = self._log_pi
+
+    def reset(self) -> None:
+        """Forget the previous run (filters, windows, plan, efference copy)."""
+        self._pipe.reset()
+        self._live.reset()
+        self._prim_live.reset()
+        self._started = False
+        self._state = -1
+        self._last_obs = -1
+        self._alpha = self._log_pi.copy()
+        self._prior = self._log_pi
+        self._feat[:] = 0.0
+        self._k = 0
+        self._prev = np.zeros(2)
+
+    def check_reachable(self, reading: FloatArray) -> None:
+        """Raise UnreachableGoalError if no plan leads from ``reading`` to the goal."""
+        probe = SimpleController(self.model, self.goal)
+        probe.step(reading)
+
+    def step(self, reading: FloatArray) -> StepOutput:
+        """Decide the command for one reading (physical units, SENSOR_CHANNELS order)."""
+        x = self._pipe.step(reading[self._idx])
+        if not self._started:
+            self._buf[:] = x[:, None]
+        else:
+            self._buf[:, :-1] = self._buf[:, 1:]
+            self._buf[:, -1] = x
+        category, novel, _ = self._live.update(x)
+        if self._recognize:
+            self._prim_live.update(x)
+        if category == self.goal_category:
+            filtered = (x + 1.0) / self._gain + self._lo
+            values = dict(zip(self._channels, filtered.tolist(), strict=True))
+            if within_tolerance(values, self.goal):
+                self._started = True
+                return StepOutput(_ZERO, category, novel, self._state, self.name, False, True)
+        try:
+            state = self._decode(category)
+        except UnreachableGoalError:
+            if not self._started or self._state < 0:
+                raise
+            state = self._state  # keep executing the current primitive until a plan exists
+        changed = state != self._state
+        self._state = state
+        self._started = True
+        n = self._buf.size
+        feat = self._feat
+        feat[:n] = self._buf.ravel()
+        if self._clock:
+            feat[-1] = min(self._k, self._clock) / self._clock
+            self._k += 1
+        out = self._gens.predict_one(feat, state)
+        h = n + 2 * self._history
+        if self._delta:
+            y = np.clip(feat[h - 2 : h] + self._delta_scale * out, -1.5, 1.5)
+            feat[h : h + 2] = np.clip((y - feat[h - 2 : h]) / self._delta_scale, -1.0, 1.0)
+        elif self._max_step < np.inf:
+            prev = feat[h - 2 : h] if self._history else self._prev
+            y = prev + np.clip(out - prev, -self._max_step, self._max_step)
+            self._prev = y
+        else:
+            y = out
+        if self._history:
+            hist = feat[n:h]
+            hist[:-2] = hist[2:]
+            hist[-2:] = y
+        return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
+
+    def _decode(self, category: int) -> int:
+        """Active primitive for the current observation category (see ``state_decoding``)."""
+        if not self._use_history:
+            if self._recognize:
+                scores = self._hmm.state_scores(category, self.goal_category)
+                return self._recognized(self._log_pi + scores)
+            return self._hmm.plan(category, self.goal_category).segments[0].state
+        scores = self._hmm.state_scores(category, self.goal_category)
+        if category != self._last_obs:
+            # Forward Viterbi message over the distinct observations seen so far.
+            if self._last_obs < 0:
+                prior = self._log_pi
+            else:
+                prior = np.max(self._alpha[:, None] + self._log_A, axis=0)
+            alpha = prior + self._log_B[:, category]
+            top = alpha.max()
+            if not np.isfinite(top):  # the history explains nothing any more: restart
+                prior = self._log_pi
+                alpha = prior + self._log_B[:, category]
+                top = alpha.max()
+            self._alpha = alpha - top
+            self._prior = prior
+            self._last_obs = category
+        total = self._prior + scores
+        best = int(np.argmax(total))
+        if not np.isfinite(total[best]):
+            return self._hmm.plan(category, self.goal_category).segments[0].state
+        if self._recognize:
+            return self._recognized(total)
+        return best
+
+    def _recognized(self, total: FloatArray) -> int:
+        """Best-matching live primitive among those the plan allows (finite score)."""
+        miss = np.where(np.isfinite(total), self._prim_miss, np.inf)
+        return int(np.argmin(miss))
+
+
+def make_controller(model: Any, goal: Mapping[str, float] | None, name: str = "") -> Any:
+    """The controller for a fitted SBLM or CBLM."""
+    if getattr(model, "kind", None) == "CBLM":
+        from behavior_hmm.runtime._complex import ComplexController
+
+        return ComplexController(model, goal, name=name)
+    return SimpleController(model, goal, name=name)
