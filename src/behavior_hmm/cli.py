@@ -48,6 +48,15 @@ def _user_errors(func: F) -> F:
         except BehaviorHMMError as err:
             typer.echo(f"error: {' '.join(str(err).split())}", err=True)
             raise typer.Exit(code=2) from None
+        except BrokenPipeError:  # output piped into e.g. `head`, which has exited: stop quietly
+            import os
+            import sys
+
+            try:  # keep Python's final flush of stdout from failing again
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            except (OSError, ValueError):
+                pass
+            raise typer.Exit(code=141) from None
         except OSError as err:  # a path we cannot read or write: the user's to fix
             where = f"{err.filename}: " if err.filename else ""
             typer.echo(f"error: {where}{err.strerror or err}", err=True)
@@ -191,7 +200,10 @@ def import_csv(
     ] = None,
     split_on_time_reset: Annotated[
         bool,
-        typer.Option(help="Without an episode column: start a new episode wherever time drops"),
+        typer.Option(
+            "--split-on-time-reset",
+            help="Without an episode column: start a new episode wherever time drops",
+        ),
     ] = False,
     delimiter: Annotated[str, typer.Option(help="Cell separator, e.g. ';' or 'tab'")] = ",",
     behavior: Annotated[str | None, typer.Option(help="Behavior name stored in metadata")] = None,
@@ -306,7 +318,7 @@ def _fmt(value: Any) -> str:
 def bench(
     name: Annotated[str, typer.Argument(help="Benchmark name, e.g. sim or cobart")],
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON")] = None,
-    quick: Annotated[bool, typer.Option(help="Fewer repeats (a smoke run)")] = False,
+    quick: Annotated[bool, typer.Option("--quick", help="Fewer repeats (a smoke run)")] = False,
 ) -> None:
     """Run a benchmark from benchmarks/ and print its results (medians) as JSON."""
     from behavior_hmm._atomic import atomic_write_bytes

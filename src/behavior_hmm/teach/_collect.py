@@ -63,6 +63,8 @@ def collect(
         raise ConfigError(f"unknown behavior '{behavior}'; choose one of {', '.join(BEHAVIORS)}")
     if noise < 0:
         raise ConfigError(f"--noise must be >= 0, got {noise}")
+    if seed < 0:
+        raise ConfigError(f"--seed must be >= 0, got {seed}")
     chosen = list(default_starts(behavior) if starts is None else starts)
     if not chosen:
         raise ConfigError("no starts to collect")

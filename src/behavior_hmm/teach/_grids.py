@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import difflib
 from importlib import resources
 from pathlib import Path
 from typing import Final
@@ -79,7 +80,7 @@ def read_starts(path: str | Path) -> list[Start]:
 
     file = str(path)
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(fh)
             fields = [f.strip() for f in (reader.fieldnames or [])]
             allowed = {"angle", "distance", "goal_angle", "goal_distance"}
@@ -89,15 +90,18 @@ def read_starts(path: str | Path) -> list[Start]:
                 )
             unknown = [f for f in fields if f not in allowed]
             if unknown:
+                close = difflib.get_close_matches(unknown[0], sorted(allowed), n=1)
+                hint = f"; did you mean '{close[0]}'?" if close else ""
                 raise DatasetError(
-                    "unknown column (expected angle, distance, goal_angle, goal_distance)",
+                    "unknown column (expected angle, distance, goal_angle, goal_distance)" + hint,
                     file=file,
                     field=unknown[0],
                 )
             if "angle" not in fields and "distance" not in fields:
                 raise DatasetError("a starts file needs a column angle and/or distance", file=file)
             starts: list[Start] = []
-            for line, row in enumerate(reader, start=2):
+            for row in reader:
+                line = reader.line_num  # the file's line number of this row
                 start: Start = {}
                 for key, raw in row.items():
                     if key is None:

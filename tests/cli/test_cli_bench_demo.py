@@ -1,0 +1,55 @@
+"""``behavior-hmm bench`` and ``behavior-hmm demo``."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from cli_testing import Invoke, assert_user_error, png_size
+
+from behavior_hmm import data
+from behavior_hmm.teach import default_starts
+
+
+def test_bench_sim_writes_real_time_factors(invoke: Invoke, tmp_path: Path) -> None:
+    out = tmp_path / "sim.json"
+    result = invoke(["bench", "sim", "--quick", "--json", out])
+    assert result.exit_code == 0, result.output
+    results = json.loads(out.read_text())
+    assert json.loads(result.stdout) == results  # the same JSON is printed
+    for key in ("mujoco_rtf", "kinematic_rtf"):
+        assert isinstance(results[key], float) and math.isfinite(results[key])
+        assert results[key] > 0
+    assert results["benchmark"] == "sim"
+
+
+def test_bench_refuses_unknown_names_and_folders(invoke: Invoke, tmp_path: Path) -> None:
+    out = tmp_path / "x.json"
+    assert_user_error(invoke(["bench", "simulator", "--json", out]), "unknown benchmark", "sim")
+    assert_user_error(invoke(["bench", "sim", "--quick", "--json", tmp_path]), "folder")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_demo_collects_and_plots_three_datasets(invoke: Invoke, tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    result = invoke(["demo", "--sim", "kinematic", "-o", out])
+    assert result.exit_code == 0, result.output
+    for behavior in ("turn", "approach", "turn-approach"):
+        ds = data.read(out / f"{behavior}.parquet")
+        assert len(ds) == len(default_starts(behavior))
+        assert ds.metadata["behavior"] == behavior
+        assert ds.metadata["simulator"] == "kinematic"
+        png_size(out / f"{behavior}.png")
+        assert behavior in result.stdout
+    assert "turn-approach.parquet" in result.stdout
+    assert result.stdout.splitlines()[-1] == f"output: {out}"
+
+
+def test_demo_refuses_bad_options(invoke: Invoke, tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert_user_error(invoke(["demo", "--sim", "gazebo", "-o", tmp_path / "d"]), "gazebo")
+    assert_user_error(invoke(["demo", "--sim", "kinematic", "-o", blocker]), "folder")
+    assert_user_error(invoke(["demo", "--seed", "-2", "-o", tmp_path / "d"]), "--seed")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
