@@ -257,6 +257,8 @@ class BehaviorHMM:
         self.log_C_ = safe_log(np.array(probs["C"], dtype=np.float64))
         self.log_pi_ = safe_log(np.array(probs["pi"], dtype=np.float64))
         self.start_prob_first_ = np.array(probs["start_prob_first"], dtype=np.float64)
+        # Kept as given so that to_arrays() round-trips bit for bit (exp(log p) != p).
+        self._probs = {k: np.array(probs[k], dtype=np.float64) for k in ("A", "B", "C", "pi")}
         self._reset_caches()
 
     def _check_fitted(self) -> None:
@@ -472,10 +474,10 @@ class BehaviorHMM:
         """
         self._check_fitted()
         return {
-            "A": np.exp(self.log_A_),
-            "B": np.exp(self.log_B_),
-            "C": np.exp(self.log_C_),
-            "pi": np.exp(self.log_pi_),
+            "A": self._probs["A"].copy(),
+            "B": self._probs["B"].copy(),
+            "C": self._probs["C"].copy(),
+            "pi": self._probs["pi"].copy(),
             "start_prob_first": self.start_prob_first_.copy(),
             "A_counts": self.A_counts_.copy(),
             "B_counts": self.B_counts_.copy(),

@@ -1,0 +1,129 @@
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from behavior_hmm.data import Dataset
+from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
+from behavior_hmm.models import CBLM, SBLM
+from behavior_hmm.teach import collect
+
+ANGLES = [float(a) for a in range(-160, 181, 40)]
+DISTANCES = [0.2, 0.5, 0.8]
+
+
+@pytest.fixture(scope="module")
+def components(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    d = tmp_path_factory.mktemp("components")
+    turn = SBLM(inputs=("angle",), epochs=60).fit(
+        collect("turn", [{"angle": a} for a in range(-170, 181, 20)], sim="kinematic")
+    )
+    approach = SBLM(inputs=("distance", "angle"), epochs=60).fit(
+        collect("approach", [{"distance": x} for x in np.arange(0.1, 1.01, 0.1)], sim="kinematic")
+    )
+    turn.save(d / "turn.bhmm")
+    approach.save(d / "approach.bhmm")
+    return {
+        "dir": d,
+        "turn": SBLM.load(d / "turn.bhmm"),
+        "approach": SBLM.load(d / "approach.bhmm"),
+    }
+
+
+@pytest.fixture(scope="module")
+def complex_data() -> Dataset:
+    starts = [{"angle": a, "distance": x} for a in ANGLES for x in DISTANCES]
+    starts += [{"angle": 0.0, "distance": x} for x in DISTANCES]
+    starts += [{"angle": a, "distance": 0.0} for a in ANGLES]
+    return collect("turn-approach", starts, sim="kinematic")
+
+
+@pytest.fixture(scope="module")
+def cblm(components: dict[str, Any], complex_data: Dataset) -> CBLM:
+    return CBLM([components["turn"], components["approach"]]).fit(complex_data)
+
+
+def test_fit_learns_between_components(cblm: CBLM) -> None:
+    assert cblm.names_ == ["turn", "approach"]
+    assert cblm.hmm_.n_states_ == 2
+    assert cblm.observations_.n_categories_ > 2
+    # in the demonstrations turn is followed by approach, never the reverse
+    a = np.exp(cblm.hmm_.log_A_)
+    assert a[0, 1] > 0 and a[1, 0] == 0
+
+
+def test_components_are_not_modified(
+    components: dict[str, Any], cblm: CBLM, tmp_path: Path, kinematic_env: Any
+) -> None:
+    folder = components["dir"]
+    before = {n: (folder / f"{n}.bhmm").read_bytes() for n in ("turn", "approach")}
+    cblm.generate(kinematic_env, start={"angle": 70.0, "distance": 0.4}, seed=0, max_steps=300)
+    cblm.save(tmp_path / "ta.bhmm")
+    loaded = CBLM.load(tmp_path / "ta.bhmm")
+    for name, model in zip(("turn", "approach"), cblm.components_, strict=True):
+        model.save(tmp_path / f"{name}.again.bhmm")
+        assert (tmp_path / f"{name}.again.bhmm").read_bytes() == before[name]
+        assert (folder / f"{name}.bhmm").read_bytes() == before[name]
+    for name, model in zip(("turn", "approach"), loaded.components_, strict=True):
+        model.save(tmp_path / f"{name}.loaded.bhmm")
+        assert (tmp_path / f"{name}.loaded.bhmm").read_bytes() == before[name]
+
+
+def test_save_load_gives_identical_trace(cblm: CBLM, tmp_path: Path, kinematic_env: Any) -> None:
+    cblm.save(tmp_path / "ta.bhmm")
+    loaded = CBLM.load(tmp_path / "ta.bhmm")
+    start = {"angle": -60.0, "distance": 0.5}
+    a = cblm.generate(kinematic_env, start=start, seed=2, max_steps=400)
+    b = loaded.generate(kinematic_env, start=start, seed=2, max_steps=400)
+    np.testing.assert_array_equal(a.command_array, b.command_array)
+    assert a.component == b.component
+
+
+def test_angle_zero_runs_approach_only(cblm: CBLM, kinematic_env: Any) -> None:
+    trace = cblm.generate(kinematic_env, start={"angle": 0.0, "distance": 0.6}, seed=0)
+    assert set(trace.component[:-1]) == {"approach"}
+
+
+def test_distance_zero_runs_turn_only(cblm: CBLM, kinematic_env: Any) -> None:
+    trace = cblm.generate(kinematic_env, start={"angle": 120.0, "distance": 0.0}, seed=0)
+    assert set(trace.component[:-1]) == {"turn"}
+
+
+def test_nested_cblm_generates(
+    components: dict[str, Any], cblm: CBLM, complex_data: Dataset, kinematic_env: Any
+) -> None:
+    # a higher CBLM whose only component is the turn-approach CBLM (tagged accordingly)
+    tagged = Dataset.from_episodes(
+        [{**ep.to_dict(), "behavior": "turn-approach"} for ep in complex_data.episodes()],
+        metadata={"behavior": "reach"},
+    )
+    outer = CBLM([cblm]).fit(tagged)
+    trace = outer.generate(kinematic_env, start={"angle": 80.0, "distance": 0.5}, seed=0)
+    assert set(trace.component[:-1]) <= {"turn", "approach"}
+    assert "turn" in trace.component
+    assert abs(trace.final_observation[2]) < 80.0
+
+
+def test_bad_inputs(components: dict[str, Any], complex_data: Dataset) -> None:
+    with pytest.raises(ConfigError, match="at least one component"):
+        CBLM([]).fit(complex_data)
+    with pytest.raises(ConfigError, match="distinct"):
+        CBLM([components["turn"], components["turn"]]).fit(complex_data)
+    with pytest.raises(DatasetError, match="not a component"):
+        CBLM([components["turn"]]).fit(complex_data)
+    untagged = Dataset.from_episodes(
+        [
+            {k: v for k, v in ep.to_dict().items() if k != "behavior"}
+            for ep in complex_data.episodes()
+        ]
+    )
+    with pytest.raises(DatasetError, match="behavior"):
+        CBLM([components["turn"], components["approach"]]).fit(untagged)
+
+
+def test_sblm_file_is_not_a_cblm(components: dict[str, Any]) -> None:
+    with pytest.raises(ModelFileError, match="not a CBLM"):
+        CBLM.load(components["dir"] / "turn.bhmm")
