@@ -62,7 +62,7 @@ def load_model(path: Path) -> Any:
     if kind == "CBLM":
         from behavior_hmm import models
 
-        return models.CBLM.load(path)  # type: ignore[attr-defined]
+        return models.CBLM.load(path)
     raise ModelFileError(f"{path}: unknown model kind '{kind}'")
 
 

@@ -95,3 +95,16 @@ def test_bad_readings() -> None:
 def test_scalar_reading_for_one_channel() -> None:
     m = CobART(window=2).fit(np.zeros(10))
     assert m.stream().update(0.0)[0] == 0
+
+
+def test_mismatch_view_tracks_the_last_reading() -> None:
+    x = np.r_[np.zeros(15), np.linspace(0, 0.6, 40), np.full(15, 0.6)][:, None]
+    model = CobART.motion_primitives().fit(x)
+    live = model.stream()
+    view = live.mismatch
+    for reading in x:
+        k, _, score = live.update(reading)
+        assert int(np.argmin(view)) == k
+        assert 1.0 - view[k] == pytest.approx(score, abs=1e-9)
+    with pytest.raises(ValueError):
+        view[0] = 0.0

@@ -6,7 +6,7 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from behavior_hmm.cobart._engine import EXACT_BAND, aligned_zeros
 from behavior_hmm.errors import ConfigError, DatasetError
@@ -50,6 +50,17 @@ class LiveCategorizer:
             p.wts, p.v, self.rho, p.exact_score,
         )  # fmt: skip
         self.reset()
+
+    @property
+    def mismatch(self) -> NDArray[np.float64]:
+        """``1 - score`` of every category for the last reading, shape ``(K,)``.
+
+        A read-only view that every :meth:`update` refreshes in place (keep a reference
+        instead of copying each cycle); clipped scores may exceed 1 before clipping.
+        """
+        view = self._pred.v.view()
+        view.flags.writeable = False
+        return view
 
     def reset(self) -> None:
         """Start a new episode: empty window, no last category."""

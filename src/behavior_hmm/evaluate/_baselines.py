@@ -19,7 +19,7 @@ from behavior_hmm.data import (
 from behavior_hmm.errors import ConfigError, NotFittedError
 from behavior_hmm.generators import MotionGenerators, make_windows
 from behavior_hmm.models._goals import check_goal, within_tolerance
-from behavior_hmm.models._sblm import command_features
+from behavior_hmm.models._sblm import command_features, onset_features, shifted_windows
 from behavior_hmm.runtime import StepOutput, Trace, run_controller
 
 FloatArray = NDArray[np.float64]
@@ -31,9 +31,10 @@ _ZERO = np.zeros(2)
 class BehaviorCloning:
     """Plain behavior cloning: one goal-conditioned network on all demonstrations.
 
-    The network reads the same filtered, normalized sensor windows as an SBLM's
-    generators, the previous ``command_history`` commands (efference copy) and the
-    normalized goal, and outputs the normalized wheel commands. There are no
+    The network reads what an SBLM's generators read with the default settings (the
+    filtered, normalized sensor windows, the onset clock, training on window-shifted
+    copies too) plus the normalized goal, and outputs the normalized wheel commands, so
+    the comparison isolates what the primitives and the Behavior-HMM add. There are no
     primitives, observation categories or plans; it stops when the filtered readings
     lie within the goal's physical tolerance. Goals in the data are where each
     demonstration ends (``goal_<channel>`` of the episode when present).
@@ -45,8 +46,9 @@ class BehaviorCloning:
     hidden
         Hidden units; default 10 per input channel (twice an SBLM generator's, since
         one network learns the whole behavior).
-    window, command_history, cutoff_hz, learning_rate, momentum, epochs, batch_size
-        As for the SBLM's motion generators.
+    window, command_history, onset_clock, window_noise, cutoff_hz, learning_rate, momentum,
+    epochs, batch_size
+        As for the SBLM's motion generators (same defaults).
     random_state
         Seed.
     """
@@ -59,7 +61,9 @@ class BehaviorCloning:
         *,
         hidden: int | None = None,
         window: int = 10,
-        command_history: int = 1,
+        command_history: int = 0,
+        onset_clock: int = 64,
+        window_noise: float = 0.003,
         cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
         learning_rate: float = 0.01,
         momentum: float = 0.4,
@@ -71,6 +75,8 @@ class BehaviorCloning:
         self.hidden = hidden
         self.window = window
         self.command_history = command_history
+        self.onset_clock = onset_clock
+        self.window_noise = window_noise
         self.cutoff_hz = cutoff_hz
         self.learning_rate = learning_rate
         self.momentum = momentum
@@ -104,7 +110,17 @@ class BehaviorCloning:
         parts = [make_windows(x, lengths, self.window), goals]
         if self.command_history:
             parts.append(command_features(y, lengths, self.command_history))
+        if self.onset_clock > 0:
+            parts.append(onset_features(lengths, self.onset_clock))
         features = np.hstack(parts)
+        groups = np.repeat(dataset.episode_ids, lengths)
+        targets = y
+        if self.window_noise > 0:
+            rng = np.random.default_rng(self.random_state)
+            noisy = shifted_windows(features, len(inputs), self.window, self.window_noise, rng)
+            features = np.vstack([features, noisy])
+            targets = np.vstack([y, y])
+            groups = np.concatenate([groups, groups])
         hidden = self.hidden if self.hidden is not None else 10 * len(inputs)
         net = MotionGenerators(
             window=self.window,
@@ -114,7 +130,7 @@ class BehaviorCloning:
             epochs=self.epochs,
             batch_size=self.batch_size,
             random_state=self.random_state,
-        ).fit(features, y, None, groups=np.repeat(dataset.episode_ids, lengths))
+        ).fit(features, targets, None, groups=groups)
         self.inputs_ = inputs
         self.pipeline_ = pipeline
         self.network_ = net
@@ -178,15 +194,19 @@ class _BCController:
         self._goal_norm = np.asarray(goal_norm, dtype=np.float64)
         self._window = int(model.window)
         self._history = int(model.command_history)
+        self._clock = int(model.onset_clock)
         n_ch = len(self._idx)
         self._buf = np.zeros((n_ch, self._window))
-        self._feat = np.zeros(n_ch * self._window + len(goal_norm) + 2 * self._history)
+        width = n_ch * self._window + len(goal_norm) + 2 * self._history
+        self._feat = np.zeros(width + (1 if self._clock else 0))
         self._started = False
+        self._k = 0
 
     def reset(self) -> None:
         self._pipe.reset()
         self._started = False
         self._feat[:] = 0.0
+        self._k = 0
 
     def step(self, reading: FloatArray) -> StepOutput:
         x = self._pipe.step(reading[self._idx])
@@ -204,9 +224,12 @@ class _BCController:
         g = len(self._goal_norm)
         self._feat[:n] = self._buf.ravel()
         self._feat[n : n + g] = self._goal_norm
+        if self._clock:
+            self._feat[-1] = min(self._k, self._clock) / self._clock
+        self._k += 1
         y = self._model.network_.predict_one(self._feat, 0)
         if self._history:
-            hist = self._feat[n + g :]
+            hist = self._feat[n + g : n + g + 2 * self._history]
             hist[:-2] = hist[2:]
             hist[-2:] = y
         return StepOutput(y * self._model.command_scale_, -1, False, 0, "bc", False, False)

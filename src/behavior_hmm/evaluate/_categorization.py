@@ -64,17 +64,19 @@ def run_categorization_experiment(
         labels = net.labels_
         counts = transition_counts(labels, train.lengths, net.n_categories_, collapse=True)
         sample_labels = net.predict(x_samples, samples.lengths)
-        sequences = []
+        sequences: list[dict[str, Any]] = []
         for a, b, start in zip(
             samples.offsets[:-1], samples.offsets[1:], starts_samples, strict=True
         ):
             sequences.append({"start": start, "sequence": primitive_sequence(sample_labels[a:b])})
-        same, opposite = [], []
+        same: list[dict[str, Any]] = []
+        opposite: list[dict[str, Any]] = []
         for i in range(len(sequences)):
             for j in range(i + 1, len(sequences)):
                 si, sj = sequences[i], sequences[j]
-                pair = [si["start"], sj["start"]]
-                if np.sign(si["start"]) == np.sign(sj["start"]):
+                a_i, a_j = float(si["start"]), float(sj["start"])
+                pair = [a_i, a_j]
+                if np.sign(a_i) == np.sign(a_j):
                     tail = _common_suffix(si["sequence"], sj["sequence"])
                     same.append({"starts": pair, "shared_tail": tail})
                 else:

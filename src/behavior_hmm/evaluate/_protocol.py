@@ -97,7 +97,7 @@ def evaluate_model(
     if not starts:
         raise ConfigError("no starts to evaluate")
     env = make_env(sim)
-    motor_max = float(env.unwrapped.params.max_wheel_speed)
+    motor_max = float(env.unwrapped.params.max_wheel_speed)  # type: ignore[attr-defined]
     behavior = str(model.behavior_)
     scale = float(model.command_scale_)
     runners = {"model": model, **dict(baselines or {})}

@@ -13,7 +13,7 @@ import os
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +22,8 @@ from behavior_hmm.cobart import CobART
 from behavior_hmm.data import DEFAULT_CUTOFF_HZ, SENSOR_CHANNELS, Dataset, SignalPipeline
 from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError, NotFittedError
 from behavior_hmm.hmm import BehaviorHMM
+from behavior_hmm.hmm._counting import Counting
+from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._goals import check_goal
 from behavior_hmm.models._sblm import (
@@ -155,9 +157,9 @@ class CBLM:
         hmm = BehaviorHMM(
             n_states=len(components),
             n_observations=obs.n_categories_,
-            counting=self.counting,
+            counting=cast(Counting, self.counting),
             smoothing=self.smoothing,
-            path_self_loops=self.path_self_loops,
+            path_self_loops=cast(PathSelfLoops, self.path_self_loops),
         ).fit(states, obs.labels_, lengths)
         raw = dataset.columns(inputs)
         finals = dataset.offsets[1:] - 1
@@ -175,6 +177,7 @@ class CBLM:
         self.max_steps_ = int(
             max(1000, 2 * int(lengths.max()), sum(c.max_steps_ for c in components))
         )
+        self.train_data_: str | None = None  # set by the command line to the data file
         self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
         return self
 
@@ -204,7 +207,8 @@ class CBLM:
     def category_values(self, category: int) -> dict[str, float]:
         """Physical value of each input at the end of an observation category's prototype."""
         self._check_fitted()
-        ranges = np.array([self.pipeline_.ranges[c] for c in self.inputs_], dtype=np.float64)
+        table = self.pipeline_.normalizer.ranges or {}
+        ranges = np.array([table[c] for c in self.inputs_], dtype=np.float64)
         proto = self.observations_.prototypes_physical(ranges)[category, -1]
         return {c: float(proto[j]) for j, c in enumerate(self.inputs_)}
 
@@ -271,6 +275,7 @@ class CBLM:
             "default_goal": self.default_goal_,
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
+            "train_data": self.train_data_,
         }
         params = _jsonable_params({k: v for k, v in self.get_params().items() if k != "components"})
         _modelfile.dump(path, self.kind, params, state, arrays)
@@ -320,6 +325,10 @@ class CBLM:
         model.default_goal_ = check_goal(state["default_goal"], inputs)
         model.max_steps_ = int(state["max_steps"])
         model.behavior_ = str(state["behavior"])
+        train_data = state.get("train_data")
+        if train_data is not None and not isinstance(train_data, str):
+            raise ModelFileError("train_data must be a path string or null")
+        model.train_data_ = train_data
         return model
 
 

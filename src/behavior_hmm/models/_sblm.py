@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import inspect
+import itertools
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.cobart import CobART
+from behavior_hmm.cobart import CobART, suggest_dcm_scale
 from behavior_hmm.data import (
     DEFAULT_CUTOFF_HZ,
     SENSOR_CHANNELS,
@@ -21,15 +22,22 @@ from behavior_hmm.data import (
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.generators import MotionGenerators, make_windows
 from behavior_hmm.hmm import BehaviorHMM
+from behavior_hmm.hmm._counting import Counting
+from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._goals import check_goal
 
 FloatArray = NDArray[np.float64]
 
 _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
+#: The channel each single-axis teacher behavior steers to its goal (DESIGN §5 stop rule:
+#: turn |angle| <= 3 deg, approach distance <= 0.01 m); other inputs stay unconstrained.
+_BEHAVIOR_GOAL_CHANNELS = {"turn": ("angle",), "approach": ("distance",)}
 
 
-def command_features(commands: FloatArray, lengths: Sequence[int], history: int) -> FloatArray:
+def command_features(
+    commands: FloatArray, lengths: Sequence[int] | NDArray[np.integer[Any]], history: int
+) -> FloatArray:
     """Previous ``history`` normalized commands per row (zeros before an episode starts).
 
     Row ``t`` holds ``[u[t-history], ..., u[t-1]]`` flattened (left, right per step),
@@ -49,7 +57,7 @@ def command_features(commands: FloatArray, lengths: Sequence[int], history: int)
 
 
 def margin_rows(
-    states: NDArray[np.int64], lengths: Sequence[int], margin: int
+    states: NDArray[np.int64], lengths: Sequence[int] | NDArray[np.integer[Any]], margin: int
 ) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
     """Training rows of every primitive: its own rows plus ``margin`` rows either side.
 
@@ -65,13 +73,33 @@ def margin_rows(
         s = states[start:stop]
         cuts = np.flatnonzero(np.diff(s)) + 1
         bounds = np.r_[0, cuts, s.size]
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        for a, b in itertools.pairwise(bounds):
             lo = max(0, int(a) - margin)
             hi = min(s.size, int(b) + margin)
             rows.append(np.arange(start + lo, start + hi))
             labels.append(np.full(hi - lo, s[a], dtype=np.int64))
         start = stop
     return np.concatenate(rows), np.concatenate(labels)
+
+
+def onset_features(lengths: Sequence[int] | NDArray[np.integer[Any]], clock: int) -> FloatArray:
+    """The onset clock per row: ``min(t, clock) / clock``, t = control cycles since the start."""
+    steps = np.concatenate([np.arange(int(n)) for n in lengths])
+    return (np.minimum(steps, clock) / clock)[:, None]
+
+
+def shifted_windows(
+    features: FloatArray, n_channels: int, window: int, sigma: float, rng: np.random.Generator
+) -> FloatArray:
+    """A copy of ``features`` whose sensor windows are offset by one Gaussian draw per channel.
+
+    The windows are the first ``n_channels * window`` columns, channel-major (as
+    :func:`~behavior_hmm.generators.make_windows` lays them out).
+    """
+    noisy = features.copy()
+    offsets = rng.normal(0.0, sigma, size=(features.shape[0], n_channels))
+    noisy[:, : n_channels * window] += np.repeat(offsets, window, axis=1)
+    return noisy
 
 
 class SBLM:
@@ -86,11 +114,15 @@ class SBLM:
     cutoff_hz
         Low-pass cut-off (Hz) applied to the inputs in training and at run time.
     hidden, learning_rate, momentum, epochs, batch_size
-        Motion-generator training (thesis table 6.2 defaults: hidden 5/10/15 units for
-        1/2/3 channels, lr 0.01, momentum 0.4).
+        Motion-generator training (lr 0.01, momentum 0.4 as thesis table 6.2). ``hidden``
+        ``None`` gives the thesis's 5/10/15 units for 1/2/3 channels; the default 5 for
+        any number of channels generalizes better off the demonstrated states (approach
+        {distance, angle}: 10 units 50 %, 5 units 81 % success on the kinematic robot).
     command_history
         Previous commands fed to each generator beside its sensor window (an efference
-        copy, see docs/algorithms.md); 0 gives the thesis's sensor-only networks.
+        copy); 0 (default) gives the thesis's sensor-only networks. With a copy, a
+        generator learns ``u[t] ≈ g(u[t-1])`` with gain above 1 on the demonstrations'
+        accelerating ramps, so in closed loop small errors grow (wrong-sign starts).
     generator_output
         ``"command"``: each network outputs the normalized wheel commands (thesis);
         ``"delta"``: it outputs the change of the commands since the last cycle, in
@@ -100,6 +132,33 @@ class SBLM:
         ``"plan"``: the active primitive is the first state of the Viterbi decoding of
         the planned path (thesis Algorithm 1, prior π); ``"history"``: the prior is the
         forward Viterbi message of the observations seen so far in this run.
+    primitive_recognition
+        If true (default), the primitive run each cycle is the one the primitive CobART
+        recognizes in the live 10-reading window, among those the plan allows (finite
+        decoding score: able to emit the current observation on a path to the goal);
+        its generator then sees the kind of window it was trained on. ``False``: the
+        best-scoring state of the decoding (thesis).
+    onset_clock
+        If > 0, each generator also reads the time since the behavior started,
+        ``min(t, onset_clock) / onset_clock`` (t in control cycles). At rest the window
+        is flat, so without it a network cannot tell how far its start-up ramp has
+        gone (the stall / wrong-sign start of DESIGN §8); 64 cycles (~1 s) covers the
+        demonstrations' acceleration. 0 disables it.
+    window_noise
+        If > 0, the generators also train on a copy of every row whose windows are
+        shifted by a Gaussian offset per channel with this standard deviation
+        (normalized units; input-noise regularization, so a generator reacts smoothly
+        to windows slightly off the demonstrations).
+    segment_margin
+        Each generator is trained on its primitive's rows plus up to this many rows
+        before and after each of its segments, so it has seen how its primitive is
+        entered and left and switches are smooth.
+    dcm_floor
+        The automatic CobART DCM scale of each channel is raised to at least this
+        fraction of the largest channel's scale (for both networks, when their params
+        do not set ``dcm_scale``). A channel that barely moves in the demonstrations
+        (the angle while approaching: 3e-5 per step) otherwise gets a DCM so sensitive
+        that noise splits the categories.
     counting, smoothing, path_self_loops
         Behavior-HMM estimation options (see :class:`~behavior_hmm.hmm.BehaviorHMM`).
     random_state
@@ -133,20 +192,19 @@ class SBLM:
         primitive_params: Mapping[str, Any] | None = None,
         observation_params: Mapping[str, Any] | None = None,
         cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
-        hidden: int | tuple[int, ...] | None = None,
+        hidden: int | tuple[int, ...] | None = 5,
         learning_rate: float = 0.01,
         momentum: float = 0.4,
         epochs: int = 200,
         batch_size: int = 32,
-        command_history: int = 1,
-        generator_output: str = "delta",
+        command_history: int = 0,
+        generator_output: str = "command",
         state_decoding: str = "history",
-        primitive_recognition: bool = False,
-        history_noise: float = 0.0,
-        onset_clock: int = 0,
-        window_noise: float = 0.0,
-        rate_limit: float | None = None,
-        segment_margin: int = 0,
+        primitive_recognition: bool = True,
+        onset_clock: int = 64,
+        window_noise: float = 0.003,
+        segment_margin: int = 10,
+        dcm_floor: float = 0.3,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -165,11 +223,10 @@ class SBLM:
         self.generator_output = generator_output
         self.state_decoding = state_decoding
         self.primitive_recognition = primitive_recognition
-        self.history_noise = history_noise
         self.onset_clock = onset_clock
         self.window_noise = window_noise
-        self.rate_limit = rate_limit
         self.segment_margin = segment_margin
+        self.dcm_floor = dcm_floor
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
@@ -209,6 +266,16 @@ class SBLM:
             raise ConfigError(
                 f"state_decoding must be 'plan' or 'history', got {self.state_decoding!r}"
             )
+        for name in ("onset_clock", "segment_margin"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ConfigError(f"{name} must be an integer >= 0, got {value!r}")
+        for name in ("window_noise", "dcm_floor"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0:
+                raise ConfigError(f"{name} must be a number >= 0, got {value!r}")
+        if self.dcm_floor > 1:
+            raise ConfigError(f"dcm_floor must lie in [0, 1], got {self.dcm_floor!r}")
         if self.generator_output == "delta" and self.command_history < 1:
             raise ConfigError("generator_output='delta' needs command_history >= 1")
         if not isinstance(self.command_history, int) or self.command_history < 0:
@@ -237,9 +304,11 @@ class SBLM:
         pipeline = SignalPipeline(inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
-        prim = CobART.motion_primitives(**dict(self.primitive_params or {})).fit(x, lengths)
+        prim_params = self._cobart_overrides(self.primitive_params, x, lengths)
+        obs_params = self._cobart_overrides(self.observation_params, x, lengths)
+        prim = CobART.motion_primitives(**prim_params).fit(x, lengths)
         prim = prim.compacted(x, lengths)
-        obs = CobART.observations(**dict(self.observation_params or {})).fit(x, lengths)
+        obs = CobART.observations(**obs_params).fit(x, lengths)
         obs = obs.compacted(x, lengths)
         states = prim.labels_
         observations = obs.labels_
@@ -248,9 +317,9 @@ class SBLM:
         hmm = BehaviorHMM(
             n_states=prim.n_categories_,
             n_observations=obs.n_categories_,
-            counting=self.counting,
+            counting=cast(Counting, self.counting),
             smoothing=self.smoothing,
-            path_self_loops=self.path_self_loops,
+            path_self_loops=cast(PathSelfLoops, self.path_self_loops),
         ).fit(states, observations, lengths)
         scaler = CommandScaler().fit(dataset.commands)
         y = scaler.transform(dataset.commands)
@@ -264,7 +333,7 @@ class SBLM:
         if self.segment_margin > 0:
             rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
             features, target, groups = features[rows], target[rows], groups[rows]
-        if self.history_noise > 0 or self.window_noise > 0:
+        if self.window_noise > 0:
             features, target, gen_states, groups = self._noisy_copies(
                 features, target, gen_states, groups
             )
@@ -294,9 +363,10 @@ class SBLM:
         self.command_scale_ = float(scaler.scale_)
         self.delta_scale_ = delta_scale
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
+        self.train_data_: str | None = None  # set by the command line to the data file
+        self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         self.default_goal_ = self._default_goal(inputs)
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
-        self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         self.train_states_ = states
         self.train_observations_ = observations
         return self
@@ -310,7 +380,7 @@ class SBLM:
         self,
         x: FloatArray,
         y: FloatArray,
-        lengths: Sequence[int],
+        lengths: Sequence[int] | NDArray[np.integer[Any]],
         window: int,
         delta_scale: float,
     ) -> FloatArray:
@@ -323,23 +393,33 @@ class SBLM:
                 prev2 = command_features(y, lengths, 2)
                 parts.append(np.clip((prev2[:, 2:] - prev2[:, :2]) / delta_scale, -1, 1))
         if self.onset_clock > 0:
-            steps = np.concatenate([np.arange(int(n)) for n in lengths])
-            parts.append((np.minimum(steps, self.onset_clock) / self.onset_clock)[:, None])
+            parts.append(onset_features(lengths, self.onset_clock))
         return np.hstack(parts) if len(parts) > 1 else parts[0]
+
+    def _n_features(self, n_channels: int, window: int) -> int:
+        """Width of a generator input row (see :meth:`_features`)."""
+        width = n_channels * window + 2 * self.command_history
+        if self.command_history > 0 and self.generator_output == "delta":
+            width += 2
+        return width + (1 if self.onset_clock > 0 else 0)
+
+    def _cobart_overrides(
+        self, params: Mapping[str, Any] | None, x: FloatArray, lengths: Any
+    ) -> dict[str, Any]:
+        """CobART overrides, with the ``dcm_floor`` applied to an automatic DCM scale."""
+        out = dict(params or {})
+        if self.dcm_floor > 0 and out.get("dcm_scale", "auto") == "auto":
+            scale = suggest_dcm_scale(x, lengths)
+            out["dcm_scale"] = np.maximum(scale, float(self.dcm_floor) * scale.max()).tolist()
+        return out
 
     def _noisy_copies(
         self, features: FloatArray, target: FloatArray, states: Any, groups: Any
     ) -> tuple[FloatArray, FloatArray, Any, Any]:
-        """Append a copy of every row whose efference copy carries Gaussian noise."""
+        """Append a copy of every row with a Gaussian offset on each channel's window."""
         rng = np.random.default_rng(self.random_state)
-        n_sensor = len(self.inputs_) * int(self.primitives_.window)
-        noisy = features.copy()
-        n = features.shape[0]
-        if self.window_noise > 0:
-            noisy[:, :n_sensor] += rng.normal(0.0, float(self.window_noise), size=(n, 1))
-        if self.history_noise > 0 and self.command_history > 0:
-            noise = rng.normal(0.0, float(self.history_noise), size=(n, 1))
-            noisy[:, n_sensor : n_sensor + 2 * self.command_history] += noise
+        n_ch, window = len(self.inputs_), int(self.primitives_.window)
+        noisy = shifted_windows(features, n_ch, window, float(self.window_noise), rng)
         return (
             np.vstack([features, noisy]),
             np.vstack([target, target]),
@@ -348,7 +428,10 @@ class SBLM:
         )
 
     def _default_goal(self, inputs: tuple[str, ...]) -> dict[str, float]:
-        goal = {c: v for c, v in _DEFAULT_GOALS.items() if c in inputs}
+        channels = _BEHAVIOR_GOAL_CHANNELS.get(self.behavior_, tuple(_DEFAULT_GOALS))
+        if not any(c in inputs for c in channels):
+            channels = tuple(_DEFAULT_GOALS)
+        goal = {c: _DEFAULT_GOALS[c] for c in channels if c in inputs}
         if not goal:
             goal = {inputs[0]: self.rest_values_[inputs[0]]}
         return goal
@@ -418,6 +501,7 @@ class SBLM:
             "default_goal": self.default_goal_,
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
+            "train_data": self.train_data_,
         }
         return state, arrays
 
@@ -458,6 +542,8 @@ class SBLM:
             raise ModelFileError("HMM sizes do not match the CobART categories")
         if gens.n_primitives_ != prim.n_categories_:
             raise ModelFileError("generator count does not match the primitives")
+        if gens.n_features_in_ != model._n_features(len(inputs), int(prim.window)):
+            raise ModelFileError("generator inputs do not match the model's parameters")
         scale = float(state["command_scale"])
         if not np.isfinite(scale) or scale <= 0:
             raise ModelFileError("command_scale must be a positive number")
@@ -475,6 +561,10 @@ class SBLM:
         model.default_goal_ = check_goal(state["default_goal"], inputs)
         model.max_steps_ = int(state["max_steps"])
         model.behavior_ = str(state["behavior"])
+        train_data = state.get("train_data")
+        if train_data is not None and not isinstance(train_data, str):
+            raise ModelFileError("train_data must be a path string or null")
+        model.train_data_ = train_data
         return model
 
 

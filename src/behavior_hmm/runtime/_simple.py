@@ -36,8 +36,11 @@ class SimpleController:
     Each cycle: filter and normalize the reading exactly as in training, categorize
     the current observation window (CobART, no learning), re-plan the most likely
     observation path to the goal category and decode its primitives (cached per
-    observation pair), take the plan's first primitive, and command the wheels from
-    that primitive's motion generator. It stops when the goal category is reached
+    observation pair), take the plan's first primitive (or, with the model's
+    ``primitive_recognition``, the primitive the primitive CobART recognizes in the
+    live window among those the plan allows), and command the wheels from that
+    primitive's motion generator (fed the cycles since the start when the model has an
+    ``onset_clock``). It stops when the goal category is reached
     *and* the filtered readings lie within the goal's physical tolerance.
 
     Parameters
@@ -61,7 +64,7 @@ class SimpleController:
         self._live = model.observations_.stream()
         self._recognize = bool(model.primitive_recognition)
         self._prim_live = model.primitives_.stream()
-        self._prim_miss = self._prim_live._pred.v  # 1 - score of every primitive (live)
+        self._prim_miss = self._prim_live.mismatch  # 1 - score of every primitive (live)
         self._hmm = model.hmm_
         self._gens = model.generators_
         self._scale = model.command_scale_
@@ -79,10 +82,7 @@ class SimpleController:
         n_ch = len(self._idx)
         self._buf = np.zeros((n_ch, self._window))
         self._clock = int(model.onset_clock)
-        rate = model.rate_limit
-        self._max_step = np.inf if rate is None else float(rate) * float(model.delta_scale_)
         self._k = 0
-        self._prev = np.zeros(2)
         extra = 2 * self._history + (2 if self._delta else 0) + (1 if self._clock else 0)
         self._feat = np.zeros(n_ch * self._window + extra)
         self._started = False
@@ -103,7 +103,6 @@ class SimpleController:
         self._prior = self._log_pi
         self._feat[:] = 0.0
         self._k = 0
-        self._prev = np.zeros(2)
 
     def check_reachable(self, reading: FloatArray) -> None:
         """Raise UnreachableGoalError if no plan leads from ``reading`` to the goal."""
@@ -147,10 +146,6 @@ class SimpleController:
         if self._delta:
             y = np.clip(feat[h - 2 : h] + self._delta_scale * out, -1.5, 1.5)
             feat[h : h + 2] = np.clip((y - feat[h - 2 : h]) / self._delta_scale, -1.0, 1.0)
-        elif self._max_step < np.inf:
-            prev = feat[h - 2 : h] if self._history else self._prev
-            y = prev + np.clip(out - prev, -self._max_step, self._max_step)
-            self._prev = y
         else:
             y = out
         if self._history:

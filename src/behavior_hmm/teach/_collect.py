@@ -82,7 +82,7 @@ def collect(
             seed=seed + i,
             noise=noise,
         )
-        columns = demo.as_arrays()
+        columns: dict[str, Any] = dict(demo.as_arrays())
         columns["episode"] = i
         episodes.append(columns)
         if progress is not None:
