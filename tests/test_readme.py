@@ -10,7 +10,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def quick_start_commands() -> list[str]:
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    match = re.search(r"(?im)^#+[^\n]*quick\s*-?\s*start[^\n]*\n(.*?)```[^\n]*\n(.*?)```", text, re.S)
+    pattern = r"(?im)^#+[^\n]*quick\s*-?\s*start[^\n]*\n(.*?)```[^\n]*\n(.*?)```"
+    match = re.search(pattern, text, re.S)
     assert match, "README has no Quick start section with a code block"
     return [line.strip() for line in match.group(2).splitlines() if line.strip()]
 
