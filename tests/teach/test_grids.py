@@ -49,7 +49,7 @@ def test_retreat_and_position_grids_are_inside_the_arena() -> None:
     retreat = default_starts("retreat")
     assert all(s["goal_distance"] > s["distance"] for s in retreat)
     position = default_starts("position")
-    assert {s["goal_distance"] for s in position} == {0.2, 0.5, 0.8}
+    assert {s["goal_distance"] for s in position} == {0.0, 0.25, 0.5, 0.75, 1.0}
     assert all(abs(s["distance"] - s["goal_distance"]) >= 0.05 for s in position)
     for start in retreat + position:
         check_start(start)

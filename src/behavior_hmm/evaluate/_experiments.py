@@ -117,3 +117,117 @@ def _figure_series(
         label = ", ".join(f"{key} {value:g}" for key, value in trace.start.items())
         series.append((label, trace.reading_array[:, j], np.asarray(demo[channel])))
     return series
+
+
+#: Turn & approach starts drawn in the figure-6.10 analogue (indices into the test starts).
+COMPLEX_FIGURE_STARTS: Final[tuple[int, ...]] = (13, 3)
+
+
+def run_complex_experiment(
+    *,
+    sim: str = "mujoco",
+    seed: int = 0,
+    noise: float = 0.0,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Thesis table 6.5 and beyond: turn & approach, position, and a nested composition.
+
+    Components are trained once (turn on {angle}, approach and retreat on {distance,
+    angle}, the thesis's best inputs) and composed without retraining: turn & approach
+    (thesis table 6.5, with a behavior-cloning baseline trained on the same complex
+    demonstrations), *position* over {turn, approach, retreat} on the 30 position test
+    starts, and *position* again as a CBLM whose components are the turn & approach CBLM
+    and retreat (a CBLM inside a CBLM).
+    """
+    from behavior_hmm.data import Dataset
+    from behavior_hmm.models import CBLM, SBLM
+    from behavior_hmm.teach import collect, test_starts
+
+    steps = 6
+    done = 0
+
+    def tick() -> None:
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, steps)
+
+    behaviors = ("turn", "approach", "retreat", "turn-approach", "position")
+    data = {b: collect(b, sim=sim, seed=seed) for b in behaviors}
+    tick()
+    turn = SBLM(inputs=("angle",), random_state=seed).fit(data["turn"])
+    approach = SBLM(inputs=("distance", "angle"), random_state=seed).fit(data["approach"])
+    retreat = SBLM(inputs=("distance", "angle"), random_state=seed).fit(data["retreat"])
+    tick()
+    t0 = time.perf_counter()
+    ta = CBLM([turn, approach], inputs=("distance", "angle")).fit(data["turn-approach"])
+    train_ta_s = time.perf_counter() - t0
+    bc = BehaviorCloning(inputs=("distance", "angle"), random_state=seed).fit(data["turn-approach"])
+    ta_starts = test_starts("turn-approach")
+    ta_result = evaluate_model(
+        ta, ta_starts, sim=sim, seed=seed, noise=noise, baselines={"bc": bc}, keep_traces=True
+    )
+    traces = ta_result.pop("_traces")
+    figure = []
+    for k in COMPLEX_FIGURE_STARTS:
+        trace, demo = traces["model"][k]
+        figure.append(
+            {
+                "start": trace.start,
+                "t": np.arange(len(trace)) * 0.016,
+                "angle": trace.reading_array[:, 2],
+                "distance": trace.reading_array[:, 0],
+                "component": list(trace.component),
+                "demo_angle": np.asarray(demo["angle"]),
+                "demo_distance": np.asarray(demo["distance"]),
+                "demo_behavior": list(demo["behavior"]),
+            }
+        )
+    tick()
+    position = CBLM([turn, approach, retreat], inputs=("distance", "angle")).fit(data["position"])
+    pos_starts = test_starts("position")
+    pos_result = evaluate_model(position, pos_starts, sim=sim, seed=seed, noise=noise)
+    tick()
+    # A CBLM as a component: relabel the position demonstrations' turn/approach rows as
+    # the turn & approach CBLM, and compose it with retreat.
+    relabelled = []
+    for episode in data["position"].episodes():
+        cols = episode.to_dict()
+        tags = np.asarray(cols["behavior"], dtype=object)
+        cols["behavior"] = np.where(tags == "retreat", "retreat", "turn-approach")
+        relabelled.append(cols)
+    nested_data = Dataset.from_episodes(relabelled, metadata=data["position"].metadata)
+    nested = CBLM([ta, retreat], inputs=("distance", "angle")).fit(nested_data)
+    nested_result = evaluate_model(nested, pos_starts, sim=sim, seed=seed, noise=noise)
+    tick()
+    retreat_result = evaluate_model(retreat, test_starts("retreat"), sim=sim, seed=seed)
+    tick()
+
+    def split(result: dict[str, Any]) -> dict[str, Any]:
+        cases = result["cases"]
+        need_approach = [c for c in cases if c["start"]["distance"] > c["goal"]["distance"]]
+        need_retreat = [c for c in cases if c["start"]["distance"] < c["goal"]["distance"]]
+        return {
+            "success_rate_mean": result["success_rate_mean"],
+            "zero_floor_mean": result["zero_floor_mean"],
+            "goal_reached": result["goal_reached"],
+            "n": result["n"],
+            "approach_goal_reached": sum(c["goal_reached"] for c in need_approach),
+            "approach_n": len(need_approach),
+            "retreat_goal_reached": sum(c["goal_reached"] for c in need_retreat),
+            "retreat_n": len(need_retreat),
+            "components_used": sorted({n for c in cases for n in c.get("components", [])}),
+        }
+
+    return {
+        "sim": sim,
+        "seed": seed,
+        "noise": noise,
+        "turn_approach": ta_result,
+        "turn_approach_train_s": train_ta_s,
+        "turn_approach_observations": int(ta.observations_.n_categories_),
+        "figure": figure,
+        "position": {**split(pos_result), "evaluation": pos_result},
+        "nested_position": {**split(nested_result), "evaluation": nested_result},
+        "retreat": retreat_result,
+    }

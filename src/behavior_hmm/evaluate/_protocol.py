@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from behavior_hmm.errors import ConfigError
+from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.evaluate._metrics import success_rate, zero_floor
 
 Progress = Callable[[int, int], None]
@@ -115,7 +115,11 @@ def evaluate_model(
         floor_motor = zero_floor(ref, motor_max)
         for name, runner in runners.items():
             goal = case_goal or None
-            trace = runner.generate(env, start=full, goal=goal, seed=seed + i, noise=noise)
+            try:
+                trace = runner.generate(env, start=full, goal=goal, seed=seed + i, noise=noise)
+            except UnreachableGoalError as err:
+                # refused before any motion: scored as a robot that stayed still
+                trace = _refused(runner, full, goal, str(err))
             gen = trace.command_array
             errors = trace.final_errors()
             cases[name].append(
@@ -133,6 +137,7 @@ def evaluate_model(
                     "steps": len(gen),
                     "reference_steps": len(ref),
                     "plan_changes": trace.n_plan_changes,
+                    "components": _collapsed([c for c in trace.component if c]),
                     "reason": trace.reason,
                 }
             )
@@ -178,3 +183,30 @@ def _summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
         "zero_floor_motor_max_mean": mean("zero_floor_motor_max"),
         "duration_ratio_mean": mean("duration_ratio"),
     }
+
+
+def _collapsed(names: list[str]) -> list[str]:
+    """Runs of equal names collapsed: the order in which components were active."""
+    out: list[str] = []
+    for name in names:
+        if not out or out[-1] != name:
+            out.append(name)
+    return out
+
+
+def _refused(runner: Any, start: Mapping[str, float], goal: Any, why: str) -> Any:
+    """The trace of a run refused before any motion (the goal was unreachable)."""
+    from behavior_hmm.data import SENSOR_CHANNELS
+    from behavior_hmm.runtime import Trace
+
+    trace = Trace(goal=runner.resolve_goal(goal), start=dict(start))
+    trace.t.append(0.0)
+    trace.commands.append(np.zeros(2))
+    trace.component.append("")
+    trace.plan_changed.append(False)
+    final = np.zeros(len(SENSOR_CHANNELS))
+    for name in ("angle", "distance"):
+        final[SENSOR_CHANNELS.index(name)] = start[name]
+    trace.final_observation = final
+    trace.reason = f"unreachable: {why}"
+    return trace

@@ -25,7 +25,7 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._goals import check_goal
+from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
 from behavior_hmm.models._sblm import (
     SBLM,
     _cobart_from,
@@ -35,6 +35,9 @@ from behavior_hmm.models._sblm import (
 )
 
 FloatArray = NDArray[np.float64]
+
+#: Vigilance of a CBLM's observation categories (see ``observation_params``).
+DEFAULT_OBSERVATION_RHO = 0.98
 
 #: Channels a goal can be stated on, in order of preference.
 GOAL_CHANNELS = ("angle", "distance")
@@ -55,7 +58,11 @@ class CBLM:
     inputs
         Sensor channels of the complex model's own observation categories.
     observation_params
-        Overrides of CobART's observation preset (thesis table 4.2).
+        Overrides of CobART's observation preset (thesis table 4.2). The CBLM's default
+        vigilance is 0.98, not 0.95: its observations span two channels, and at 0.95 a
+        still window 9 deg off the object falls in the same category as an aligned one,
+        so "turn first" and "approach only" could not be told apart near the 3 deg
+        tolerance (turn & approach on MuJoCo: 0.95 gives 76 %, 0.98 gives 93 %).
     cutoff_hz
         Low-pass cut-off (Hz) of the inputs, as for the SBLM.
     counting, smoothing, path_self_loops
@@ -152,7 +159,8 @@ class CBLM:
         pipeline = SignalPipeline(inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
-        obs = CobART.observations(**dict(self.observation_params or {})).fit(x, lengths)
+        overrides = {"rho": DEFAULT_OBSERVATION_RHO, **dict(self.observation_params or {})}
+        obs = CobART.observations(**overrides).fit(x, lengths)
         obs = obs.compacted(x, lengths)
         hmm = BehaviorHMM(
             n_states=len(components),
@@ -177,6 +185,7 @@ class CBLM:
         self.max_steps_ = int(
             max(1000, 2 * int(lengths.max()), sum(c.max_steps_ for c in components))
         )
+        self.effects_ = _effects(states, raw, lengths, len(components), inputs)
         self.train_data_: str | None = None  # set by the command line to the data file
         self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
         return self
@@ -187,11 +196,15 @@ class CBLM:
             raise NotFittedError("this CBLM is not fitted yet; call fit first")
 
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
-        """The goal in physical units on this model's inputs (default: angle 0, distance 0)."""
+        """The goal in physical units on this model's inputs (default: angle 0, distance 0).
+
+        Channels the goal leaves out keep their default, so ``{"distance": 0.6}`` means
+        facing the object at 0.6 m.
+        """
         self._check_fitted()
         if goal is None:
             return dict(self.default_goal_)
-        return check_goal(goal, self.inputs_)
+        return {**self.default_goal_, **check_goal(goal, self.inputs_)}
 
     def goal_window(self, goal: Mapping[str, float]) -> FloatArray:
         """A still observation window at ``goal`` (normalized), other inputs at rest."""
@@ -199,10 +212,24 @@ class CBLM:
         reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
         return np.repeat(reading, int(self.observations_.window), axis=0)
 
+    def goal_categories(self, goal: Mapping[str, float], limit: int = 64) -> NDArray[np.int64]:
+        """Candidate goal categories, best match first (see :func:`best_goal_category`).
+
+        The controllers plan to the first candidate that is reachable from where the
+        robot is: with fine categories, several categories describe being at the goal
+        (reached from different sides), and the best match may lie on another branch.
+        """
+        scores = self.observations_.score_window(self.goal_window(goal))
+        columns = [self.inputs_.index(c) for c in goal]
+        latest = self.observations_.prototypes_[:, -1, :][:, columns]
+        target = self.goal_window(goal)[-1, columns]
+        return goal_candidates(scores, self.hmm_.C_counts_, latest, target, limit)
+
     def goal_category(self, goal: Mapping[str, float]) -> int:
         """Observation category of a still window at ``goal``."""
         self._check_fitted()
-        return int(np.argmax(self.observations_.score_window(self.goal_window(goal))))
+        scores = self.observations_.score_window(self.goal_window(goal))
+        return best_goal_category(scores, self.hmm_.C_counts_)
 
     def category_values(self, category: int) -> dict[str, float]:
         """Physical value of each input at the end of an observation category's prototype."""
@@ -213,18 +240,26 @@ class CBLM:
         return {c: float(proto[j]) for j, c in enumerate(self.inputs_)}
 
     def component_goal(
-        self, component: int, category: int, final_goal: Mapping[str, float]
+        self,
+        component: int,
+        category: int,
+        final_goal: Mapping[str, float],
+        *,
+        final: bool | None = None,
     ) -> dict[str, float]:
         """Intermediate goal handed to a component: the exit observation in its channels.
 
         Channels the complex goal states take the goal's value when the exit observation
-        is the goal category itself; otherwise the exit category's prototype values. Only
+        is the goal (``final``; by default, when it is the goal category); otherwise the
+        exit category's prototype values. Only
         channels that are goal channels of the component (those of its default goal) are
         handed down, e.g. ``{angle 0, distance 0.8}`` -> turn gets ``angle = 0``.
         """
         model = self.components_[component]
         values = self.category_values(category)
-        if category == self.goal_category(final_goal):
+        if final is None:
+            final = category == self.goal_category(final_goal)
+        if final:
             values.update(final_goal)
         goal = {}
         for channel in model.default_goal_:
@@ -261,6 +296,7 @@ class CBLM:
         arrays["obs.prototypes"] = self.observations_.prototypes_
         arrays["obs.counts"] = self.observations_.counts_
         arrays["obs.dcm_scale"] = self.observations_.dcm_scale_
+        arrays["effects"] = self.effects_
         for i, component in enumerate(self.components_):
             arrays[f"component.{i}"] = np.frombuffer(_model_bytes(component), dtype=np.uint8)
         state = {
@@ -320,6 +356,10 @@ class CBLM:
         model.pipeline_ = pipeline
         model.observations_ = obs
         model.hmm_ = hmm
+        effects = _modelfile.check_array(arrays, "effects", ndim=2)
+        if effects.shape != (len(components), len(inputs)):
+            raise ModelFileError("effects must have one row per component, one column per input")
+        model.effects_ = effects
         model.command_scale_ = float(state["command_scale"])
         model.rest_values_ = {c: float(state["rest_values"][c]) for c in inputs}
         model.default_goal_ = check_goal(state["default_goal"], inputs)
@@ -345,3 +385,34 @@ def _load_bytes(loader: Any, data: bytes) -> Any:
         path = Path(tmp) / "component.bhmm"
         path.write_bytes(data)
         return loader.load(path)
+
+
+def _effects(
+    states: np.ndarray,
+    raw: np.ndarray,
+    lengths: np.ndarray,
+    n_components: int,
+    inputs: tuple[str, ...],
+) -> np.ndarray:
+    """What each component does to each input in the demonstrations.
+
+    ``effects[k, j]`` is the mean per-step change, while component ``k`` is active, of
+    input ``j`` — of its magnitude ``|x|`` for the angle (a turn shrinks the bearing
+    from either side), of the value itself otherwise (an approach lowers the distance, a
+    retreat raises it). The complex runtime uses the signs to pick which component can
+    still close a gap the plan has left (see ``runtime.ComplexController``).
+    """
+    values = np.array(raw, dtype=np.float64)
+    for j, name in enumerate(inputs):
+        if name == "angle":
+            values[:, j] = np.abs(values[:, j])
+    steps = np.diff(values, axis=0)
+    same_episode = np.ones(len(values) - 1, dtype=bool)
+    same_episode[np.cumsum(lengths)[:-1] - 1] = False
+    active = states[:-1]
+    effects = np.zeros((n_components, len(inputs)))
+    for k in range(n_components):
+        rows = same_episode & (active == k)
+        if rows.any():
+            effects[k] = steps[rows].mean(axis=0)
+    return effects

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Final
 
+import numpy as np
+
 from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M, SENSOR_CHANNELS
 from behavior_hmm.errors import ConfigError
 
@@ -41,6 +43,70 @@ def check_goal(goal: Mapping[str, float], allowed: tuple[str, ...]) -> dict[str,
             raise ConfigError(f"goal distance {v:g} m not in [0, 1.2]")
         out[name] = v
     return out
+
+
+def entered_categories(c_counts: np.ndarray) -> np.ndarray:
+    """Observation categories that the demonstrations entered from another category."""
+    counts = np.asarray(c_counts, dtype=np.int64)
+    return (counts.sum(axis=0) - np.diag(counts)) > 0
+
+
+def best_goal_category(scores: np.ndarray, c_counts: np.ndarray) -> int:
+    """The best-matching category for a goal window among those a path can end in.
+
+    A still window at an intermediate goal (e.g. 0.5 m for an approach) matches best the
+    category of a demonstration that *started* there, which nothing ever leads into;
+    such a goal would be unreachable although every approach passes 0.5 m. So the goal
+    category is the best match among the categories the demonstrations entered, unless
+    none was entered (a model trained on still data).
+    """
+    entered = entered_categories(c_counts)
+    if not entered.any():
+        return int(np.argmax(scores))
+    masked = np.where(entered, scores, -np.inf)
+    return int(np.argmax(masked))
+
+
+#: Largest RMS difference (normalized units) between a goal and the latest reading of a
+#: candidate goal category's prototype, over the goal's channels: about 9 deg of bearing
+#: or 3 cm of distance with the default normalization.
+GOAL_VALUE_MARGIN = 0.05
+
+
+def goal_candidates(
+    scores: np.ndarray,
+    c_counts: np.ndarray,
+    latest: np.ndarray,
+    goal: np.ndarray,
+    limit: int = 64,
+) -> np.ndarray:
+    """Categories that describe being at the goal, best first.
+
+    The first candidate is :func:`best_goal_category` (the thesis's o_g). The others are
+    the entered categories whose prototype ends within ``GOAL_VALUE_MARGIN`` of the goal
+    on the goal's channels, nearest first, whatever the motion in their window: at an
+    intermediate goal (an approach asked to stop at 0.5 m) the robot passes categories
+    of moving windows, and several of them, on different branches of the observation
+    graph, describe the same place.
+
+    Parameters
+    ----------
+    scores
+        Score of every category for a still window at the goal.
+    c_counts
+        Observation transition counts (which categories were entered).
+    latest
+        (K, G) latest reading of every prototype on the goal's channels (normalized).
+    goal
+        (G,) the goal on those channels (normalized).
+    """
+    best = best_goal_category(scores, c_counts)
+    entered = entered_categories(c_counts)
+    gap = np.sqrt(np.mean((np.asarray(latest) - np.asarray(goal)[None, :]) ** 2, axis=1))
+    near = np.flatnonzero((gap <= GOAL_VALUE_MARGIN) & entered)
+    near = near[np.argsort(gap[near], kind="stable")]
+    out = [best] + [int(k) for k in near if k != best]
+    return np.asarray(out[:limit], dtype=np.int64)
 
 
 def within_tolerance(values: Mapping[str, float], goal: Mapping[str, float]) -> bool:

@@ -25,14 +25,23 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._goals import check_goal
+from behavior_hmm.models._goals import (
+    TOLERANCES,
+    best_goal_category,
+    check_goal,
+    goal_candidates,
+)
 
 FloatArray = NDArray[np.float64]
 
 _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
 #: The channel each single-axis teacher behavior steers to its goal (DESIGN §5 stop rule:
 #: turn |angle| <= 3 deg, approach distance <= 0.01 m); other inputs stay unconstrained.
-_BEHAVIOR_GOAL_CHANNELS = {"turn": ("angle",), "approach": ("distance",)}
+_BEHAVIOR_GOAL_CHANNELS = {
+    "turn": ("angle",),
+    "approach": ("distance",),
+    "retreat": ("distance",),
+}
 
 
 def command_features(
@@ -431,7 +440,14 @@ class SBLM:
         channels = _BEHAVIOR_GOAL_CHANNELS.get(self.behavior_, tuple(_DEFAULT_GOALS))
         if not any(c in inputs for c in channels):
             channels = tuple(_DEFAULT_GOALS)
-        goal = {c: _DEFAULT_GOALS[c] for c in channels if c in inputs}
+        goal = {}
+        for c in channels:
+            if c not in inputs:
+                continue
+            # where the demonstrations end; the nominal 0 deg / 0 m when they end there
+            end = self.rest_values_[c]
+            nominal = _DEFAULT_GOALS[c]
+            goal[c] = nominal if abs(end - nominal) <= TOLERANCES[c] else round(end, 3)
         if not goal:
             goal = {inputs[0]: self.rest_values_[inputs[0]]}
         return goal
@@ -455,10 +471,23 @@ class SBLM:
         reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
         return np.repeat(reading, int(self.observations_.window), axis=0)
 
+    def goal_categories(self, goal: Mapping[str, float], limit: int = 64) -> NDArray[np.int64]:
+        """Candidate goal categories, best match first (see :func:`best_goal_category`).
+
+        The controllers plan to the first candidate that is reachable from where the
+        robot is: with fine categories, several categories describe being at the goal
+        (reached from different sides), and the best match may lie on another branch.
+        """
+        scores = self.observations_.score_window(self.goal_window(goal))
+        columns = [self.inputs_.index(c) for c in goal]
+        latest = self.observations_.prototypes_[:, -1, :][:, columns]
+        target = self.goal_window(goal)[-1, columns]
+        return goal_candidates(scores, self.hmm_.C_counts_, latest, target, limit)
+
     def goal_category(self, goal: Mapping[str, float]) -> int:
         """Observation category of a still window at ``goal`` (thesis Algorithm 1, o_g)."""
         scores = self.observations_.score_window(self.goal_window(goal))
-        return int(np.argmax(scores))
+        return best_goal_category(scores, self.hmm_.C_counts_)
 
     # -------------------------------------------------------------- generation
     def generate(

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from behavior_hmm.data import SENSOR_CHANNELS
 from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.models._goals import TOLERANCES, within_tolerance
-from behavior_hmm.runtime._simple import StepOutput, make_controller
+from behavior_hmm.runtime._simple import StepOutput, make_controller, retarget
 
 FloatArray = NDArray[np.float64]
 
@@ -45,7 +45,11 @@ class ComplexController:
         self.model = model
         self.name = name
         self.goal = model.resolve_goal(goal)
-        self.goal_category = model.goal_category(self.goal)
+        self._goal_candidates = model.goal_categories(self.goal)
+        self.goal_category = int(self._goal_candidates[0])
+        self._goal_set = frozenset(int(k) for k in self._goal_candidates)
+        # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
+        self._stop_set = frozenset({self.goal_category})
         self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
         self._channels = model.inputs_
         self._pipe = model.pipeline_.online()
@@ -62,6 +66,32 @@ class ComplexController:
         self._active = -1
         self._child: Any = None
         self._finished: dict[int, dict[str, float]] = {}
+        self._reachable_from = -1
+        self._unable: set[int] = set()
+
+    def _plannable(self, category: int) -> int:
+        """``category``, or the next-best match of the current window a plan can start from.
+
+        A window between two demonstrated starts can match best a category from which
+        no demonstration led to the goal; the runner-up categories of the same window
+        (at most 5) are tried before giving up (UnreachableGoalError before any motion).
+        """
+        hmm = self.model.hmm_
+        try:
+            retarget(self, hmm, category, may_raise=True, most_likely=True)
+            return category
+        except UnreachableGoalError:
+            if self._child is not None:
+                return category  # carry on with the running component
+            ranked = np.argsort(self._live.mismatch, kind="stable")[:6]
+            for alternative in (int(k) for k in ranked if k != category):
+                try:
+                    retarget(self, hmm, alternative, may_raise=True, most_likely=True)
+                except UnreachableGoalError:
+                    continue
+                self._reachable_from = category
+                return alternative
+            raise
 
     def _values(self, reading: FloatArray, x: FloatArray) -> dict[str, float]:
         filtered = (x + 1.0) / self._gain + self._lo
@@ -74,13 +104,16 @@ class ComplexController:
         """Decide the command for one reading (physical units, SENSOR_CHANNELS order)."""
         x = self._pipe.step(reading[self._idx])
         category, novel, _ = self._live.update(x)
+        if category != self._reachable_from:
+            category = self._plannable(category)
+            self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
         at_goal = within_tolerance(values, self.goal)
-        if category == self.goal_category and at_goal:
+        if category in self._stop_set and at_goal:
             return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
         # A finished component whose goal no longer holds (e.g. after a push) runs again.
         for comp, sub_goal in list(self._finished.items()):
-            if not _within(values, sub_goal, 2.0):
+            if not _within(values, sub_goal, 1.0):
                 del self._finished[comp]
         plan = None
         try:
@@ -94,14 +127,51 @@ class ComplexController:
             if self._child is None or self._active in self._finished:
                 if at_goal:  # nothing left to run and the goal holds
                     return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
-                # the plan is exhausted short of the goal: the last component takes the goal
-                comp = self._active if plan is None else plan.segments[-1].state
-                self._finished.pop(comp, None)
-                return self._delegate(comp, self.goal, reading, category, novel)
+                # The plan is exhausted short of the goal (e.g. an approach drifted off
+                # the bearing): run the component whose own goal covers the channel that
+                # misses its tolerance, toward the complex goal on its channels.
+                return self._repair(values, reading, category, novel)
             return self._run_child(reading, category, novel, changed=False)
         segment = segments[0]
-        sub_goal = self.model.component_goal(segment.state, segment.exit_observation, self.goal)
+        sub_goal = self.model.component_goal(
+            segment.state,
+            segment.exit_observation,
+            self.goal,
+            final=segment.exit_observation in self._goal_set,
+        )
         return self._delegate(segment.state, sub_goal, reading, category, novel)
+
+    def _repair(
+        self, values: Mapping[str, float], reading: FloatArray, category: int, novel: bool
+    ) -> StepOutput:
+        """Run a component whose goal channels cover one the complex goal misses.
+
+        Components are tried in order; one that cannot reach the goal from here (its
+        own plan is unreachable, e.g. an approach asked to back away) is skipped.
+        """
+        missed = [c for c in self.goal if not _within(values, {c: self.goal[c]}, 1.0)]
+        effects = self.model.effects_
+        for channel in missed:
+            j = self._channels.index(channel)
+            error = values[channel] - self.goal[channel]
+            # the change that closes the gap: |angle| must shrink; others move to the goal
+            needed = -1.0 if channel == "angle" else -np.sign(error)
+            order = np.argsort(-needed * effects[:, j], kind="stable")
+            for comp in (int(k) for k in order):
+                component = self.model.components_[comp]
+                if (
+                    channel not in component.default_goal_
+                    or comp in self._unable
+                    or needed * effects[comp, j] <= 0
+                ):
+                    continue
+                sub_goal = {c: self.goal.get(c, v) for c, v in component.default_goal_.items()}
+                self._finished.pop(comp, None)
+                out = self._delegate(comp, sub_goal, reading, category, novel, renew=True)
+                if comp not in self._finished:  # it runs: no UnreachableGoalError
+                    return out
+                self._unable.add(comp)
+        return StepOutput(_ZERO, category, novel, self._active, self.name, False, False)
 
     def _delegate(
         self,
@@ -110,8 +180,9 @@ class ComplexController:
         reading: FloatArray,
         category: int,
         novel: bool,
+        renew: bool = False,
     ) -> StepOutput:
-        changed = comp != self._active
+        changed = comp != self._active or renew
         if changed:
             component = self.model.components_[comp]
             self._child = make_controller(component, sub_goal, name=self.model.names_[comp])

@@ -57,7 +57,12 @@ class SimpleController:
         self.model = model
         self.name = name
         self.goal = model.resolve_goal(goal)
-        self.goal_category = model.goal_category(self.goal)
+        self._goal_candidates = model.goal_categories(self.goal)
+        self.goal_category = int(self._goal_candidates[0])
+        self._goal_set = frozenset(int(k) for k in self._goal_candidates)
+        # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
+        self._stop_set = frozenset({self.goal_category})
+        self._reachable_from = -1
         self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
         self._channels = model.inputs_
         self._pipe = model.pipeline_.online()
@@ -120,7 +125,9 @@ class SimpleController:
         category, novel, _ = self._live.update(x)
         if self._recognize:
             self._prim_live.update(x)
-        if category == self.goal_category:
+        if category != self._reachable_from:
+            retarget(self, self._hmm, category, may_raise=not self._started)
+        if category in self._stop_set:
             filtered = (x + 1.0) / self._gain + self._lo
             values = dict(zip(self._channels, filtered.tolist(), strict=True))
             if within_tolerance(values, self.goal):
@@ -189,6 +196,56 @@ class SimpleController:
         """Best-matching live primitive among those the plan allows (finite score)."""
         miss = np.where(np.isfinite(total), self._prim_miss, np.inf)
         return int(np.argmin(miss))
+
+
+def retarget(
+    controller: Any, hmm: Any, category: int, *, may_raise: bool, most_likely: bool = False
+) -> None:
+    """Keep ``controller.goal_category`` reachable from ``category``.
+
+    When no observation path leads from the current category to the goal category,
+    the controller switches to the best-matching goal candidate that is reachable
+    (``model.goal_categories``), and from then on stops in any candidate category
+    (within the physical tolerance). If none is reachable, it raises before any motion
+    (``may_raise``) and otherwise keeps its goal (the caller carries on with what it
+    was doing until a plan exists again).
+    """
+    controller._reachable_from = category
+    if most_likely:
+        # among the goal candidates, the one the most likely observation path leads to
+        # (the branch the robot is on), the best match first among equals
+        best, best_lp = -1, -np.inf
+        for candidate in controller._goal_candidates:
+            try:
+                lp = hmm.plan(category, int(candidate)).path_log_prob
+            except UnreachableGoalError:
+                continue
+            if lp > best_lp:
+                best, best_lp = int(candidate), lp
+        if best >= 0:
+            if best != controller.goal_category:
+                controller.goal_category = best
+                controller._stop_set = controller._goal_set
+            return
+    try:
+        hmm.plan(category, controller.goal_category)
+        return
+    except UnreachableGoalError:
+        pass
+    for candidate in controller._goal_candidates:
+        try:
+            hmm.plan(category, int(candidate))
+        except UnreachableGoalError:
+            continue
+        controller.goal_category = int(candidate)
+        # an intermediate goal: any category describing the goal place ends the run
+        controller._stop_set = controller._goal_set
+        return
+    if may_raise:
+        raise UnreachableGoalError(
+            f"no observation path leads from category {category} to any category matching "
+            f"the goal {controller.goal}"
+        )
 
 
 def make_controller(model: Any, goal: Mapping[str, float] | None, name: str = "") -> Any:

@@ -27,7 +27,8 @@ def default_starts(behavior: str) -> list[Start]:
     turn: -180..180 deg every 10 deg (0 excluded) at 0.5 m; approach: 0.10..1.00 m
     every 0.05 m at 0 deg; turn-approach: every 20 deg x every 0.1 m plus the angle-0
     and distance-0 edges; retreat: 0.00..0.90 m every 0.05 m back to 1.0 m;
-    position: turn-approach's angles x start distances x goal distances 0.2/0.5/0.8 m.
+    position: every 40 deg (and 0) x start distances 0..1 m every 0.2 m x goal distances
+    0, 0.25, 0.5, 0.75 and 1 m (so every goal in [0, 1] m is passed on the way).
     """
     if behavior == "turn":
         return [{"angle": float(a), "distance": TURN_DISTANCE} for a in range(-180, 181, 10) if a]
@@ -48,7 +49,7 @@ def default_starts(behavior: str) -> list[Start]:
     if behavior == "position":
         angles = [float(a) for a in range(-180, 181, 40) if a] + [0.0]
         starts = []
-        for goal in (0.2, 0.5, 0.8):
+        for goal in (0.0, 0.25, 0.5, 0.75, 1.0):
             for d in _grid(0.0, 1.0, 0.2):
                 if abs(d - goal) < 0.05:
                     continue
@@ -58,7 +59,10 @@ def default_starts(behavior: str) -> list[Start]:
 
 
 def test_starts(behavior: str) -> list[Start]:
-    """The 15 fixed test starts of ``behavior`` shipped in ``teach/starts/`` (none on a grid)."""
+    """The fixed test starts shipped in ``teach/starts/``, none on a training grid.
+
+    15 per behavior; ``position`` has 30: 15 that need an approach, 15 a retreat.
+    """
     name = f"{behavior.replace('-', '_')}_test.csv"
     ref = resources.files("behavior_hmm.teach").joinpath("starts", name)
     if not ref.is_file():
