@@ -1,4 +1,4 @@
-"""Training time of the turn SBLM from its default dataset (median of repeats).
+"""Training times: the turn SBLM, the approach SBLM, and the turn & approach CBLM.
 
 The dataset is collected once (not timed); each repeat fits a fresh model with the same
 seed, so every repeat does identical work.
@@ -24,7 +24,7 @@ def _median_time(fit: Any, repeats: int) -> float:
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-    from behavior_hmm.models import SBLM
+    from behavior_hmm.models import CBLM, SBLM
 
     repeats = 1 if quick else 3
     turn = default_dataset("turn")
@@ -33,11 +33,20 @@ def run(quick: bool = False) -> dict[str, Any]:
         "turn_samples": int(turn.n_samples),
         "repeats": repeats,
     }
-    if not quick:
-        approach = default_dataset("approach")
-        results["train_approach_s_median"] = _median_time(
-            lambda: SBLM(inputs=("distance", "angle")).fit(approach), repeats
-        )
+    approach = default_dataset("approach")
+    results["train_approach_s_median"] = _median_time(
+        lambda: SBLM(inputs=("distance", "angle")).fit(approach), repeats
+    )
+    # the turn & approach CBLM, given its already learned components (not timed)
+    components = [
+        SBLM(inputs=("angle",)).fit(turn),
+        SBLM(inputs=("distance", "angle")).fit(approach),
+    ]
+    complex_data = default_dataset("turn-approach")
+    results["train_complex_s_median"] = _median_time(
+        lambda: CBLM(components, inputs=("distance", "angle")).fit(complex_data), repeats
+    )
+    results["complex_samples"] = int(complex_data.n_samples)
     return results
 
 

@@ -108,6 +108,34 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             f"({time.perf_counter() - t0:.1f} s)"
         )
 
+    @train_app.command("complex")
+    @wrap
+    def train_complex(
+        data: Annotated[Path, typer.Argument(help="Tagged demonstrations (behavior column)")],
+        component: Annotated[
+            list[Path], typer.Option(help="A learned behavior (.bhmm), repeatable")
+        ],
+        out: Annotated[Path, typer.Option("-o", "--out", help="Model file to write")],
+        inputs: Annotated[str, typer.Option(help="Input channels")] = "distance,angle",
+    ) -> None:
+        """Compose learned behaviors (CBLM) from demonstrations tagged per row."""
+        import time
+
+        from behavior_hmm import data as bdata
+        from behavior_hmm.models import CBLM
+
+        components = [load_model(path) for path in component]
+        dataset = bdata.read(data)
+        t0 = time.perf_counter()
+        model = CBLM(components, inputs=_inputs(inputs)).fit(dataset)
+        model.train_data_ = str(data)
+        model.save(out)
+        typer.echo(
+            f"wrote {out}: {model.behavior_} over {', '.join(model.names_)} on "
+            f"{','.join(model.inputs_)}, {model.observations_.n_categories_} observation "
+            f"categories ({time.perf_counter() - t0:.1f} s); components unchanged"
+        )
+
     app.add_typer(train_app, name="train")
 
     @app.command()
@@ -220,6 +248,32 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
             )
         typer.echo(write_simple_report(results, out))
+        typer.echo(f"results: {out}/results.json, figures and table.md")
+
+    @experiment_app.command("complex")
+    @wrap
+    def experiment_complex(
+        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
+            "results/complex"
+        ),
+        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
+        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+    ) -> None:
+        """Thesis table 6.5 and fig 6.10, plus position over {turn, approach, retreat}."""
+        from behavior_hmm.evaluate._experiments import run_complex_experiment
+        from behavior_hmm.viz import write_complex_report
+
+        _check_sim(sim)
+        with progress() as bar:
+            task = bar.add_task(f"experiment complex ({sim})", total=None)
+            results = run_complex_experiment(
+                sim=sim,
+                seed=seed,
+                noise=noise,
+                progress=lambda d, t: bar.update(task, completed=d, total=t),
+            )
+        typer.echo(write_complex_report(results, out))
         typer.echo(f"results: {out}/results.json, figures and table.md")
 
     @experiment_app.command("categorization")

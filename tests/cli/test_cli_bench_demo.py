@@ -6,6 +6,7 @@ import json
 import math
 from pathlib import Path
 
+import pytest
 from cli_testing import Invoke, assert_user_error, png_size
 
 from behavior_hmm import data
@@ -31,7 +32,8 @@ def test_bench_refuses_unknown_names_and_folders(invoke: Invoke, tmp_path: Path)
     assert list(tmp_path.iterdir()) == []
 
 
-def test_demo_collects_and_plots_three_datasets(invoke: Invoke, tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_demo_collects_trains_composes_and_evaluates(invoke: Invoke, tmp_path: Path) -> None:
     out = tmp_path / "demo"
     result = invoke(["demo", "--sim", "kinematic", "-o", out])
     assert result.exit_code == 0, result.output
@@ -40,10 +42,14 @@ def test_demo_collects_and_plots_three_datasets(invoke: Invoke, tmp_path: Path) 
         assert len(ds) == len(default_starts(behavior))
         assert ds.metadata["behavior"] == behavior
         assert ds.metadata["simulator"] == "kinematic"
-        png_size(out / f"{behavior}.png")
+        png_size(out / f"{behavior}_demonstrations.png")
+        png_size(out / f"{behavior}_run.png")
+        assert (out / f"{behavior}.bhmm").stat().st_size > 0
         assert behavior in result.stdout
-    assert "turn-approach.parquet" in result.stdout
-    assert result.stdout.splitlines()[-1] == f"output: {out}"
+    # the report table: one row per behavior with its success rate, floor and goals
+    assert "success %" in result.stdout and "zero floor %" in result.stdout
+    assert "/15" in result.stdout
+    assert result.stdout.splitlines()[-1] == f"output (datasets, models, plots): {out}"
 
 
 def test_demo_refuses_bad_options(invoke: Invoke, tmp_path: Path) -> None:

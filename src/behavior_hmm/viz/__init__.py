@@ -2,16 +2,28 @@
 
 from behavior_hmm.viz._demonstrations import DEFAULT_PLOT_CHANNELS, plot_demonstrations
 from behavior_hmm.viz._learning_curves import plot_generator_sweeps, plot_learning_curves
-from behavior_hmm.viz._reports import simple_table, write_simple_report
-from behavior_hmm.viz._traces import plot_generated_vs_demonstrated, plot_trace
+from behavior_hmm.viz._reports import (
+    complex_table,
+    simple_table,
+    write_complex_report,
+    write_simple_report,
+)
+from behavior_hmm.viz._traces import (
+    plot_complex_run,
+    plot_generated_vs_demonstrated,
+    plot_trace,
+)
 
 __all__ = [
     "DEFAULT_PLOT_CHANNELS",
+    "complex_table",
+    "plot_complex_run",
     "plot_demonstrations",
     "plot_generated_vs_demonstrated",
     "plot_generator_sweeps",
     "plot_learning_curves",
     "plot_trace",
     "simple_table",
+    "write_complex_report",
     "write_simple_report",
 ]

@@ -98,3 +98,35 @@ def plot_generated_vs_demonstrated(
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title)
     return _save(fig, path)
+
+
+def plot_complex_run(run: dict[str, Any], path: str | os.PathLike[str]) -> Path:
+    """Angle and distance of a complex run against the demonstration (thesis fig 6.10).
+
+    The background shows which component was active (generated run).
+    """
+    t = np.asarray(run["t"])
+    fig = Figure(figsize=(8, 5.5), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    names = list(dict.fromkeys(n for n in run["component"] if n))
+    colors = {name: f"C{i + 2}" for i, name in enumerate(names)}
+    comp = list(run["component"])
+    for ax, channel in zip(axes, ("angle", "distance"), strict=True):
+        demo = np.asarray(run[f"demo_{channel}"])
+        ax.plot(np.arange(len(demo)) * CONTROL_PERIOD, demo, "k--", lw=1.2, label="demonstrated")
+        ax.plot(t, run[channel], lw=1.8, label="generated")
+        start = 0
+        for k in range(1, len(comp) + 1):
+            if k == len(comp) or comp[k] != comp[start]:
+                if comp[start]:
+                    ax.axvspan(t[start], t[k - 1], color=colors[comp[start]], alpha=0.12, lw=0)
+                start = k
+        ax.set_ylabel(f"{channel} ({UNITS[channel]})")
+        ax.grid(alpha=0.3)
+    for name, color in colors.items():
+        axes[0].plot([], [], color=color, alpha=0.4, lw=8, label=f"{name} active")
+    axes[0].legend(loc="best", fontsize=8)
+    axes[1].set_xlabel("time (s)")
+    start_text = ", ".join(f"{k} {v:g}" for k, v in run["start"].items())
+    fig.suptitle(f"turn & approach from {start_text}: generated vs demonstrated")
+    return _save(fig, path)
