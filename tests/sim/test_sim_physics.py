@@ -157,3 +157,17 @@ def test_params_resize_the_mujoco_model() -> None:
     # The sensors and the MuJoCo geometry agree: the chassis geom sits where pose says.
     mujoco.mj_forward(env.sim.model, env.sim.data)  # xpos lags qpos by one mj_step
     np.testing.assert_allclose(env.sim.data.geom("chassis").xpos[:2], [x, y], atol=1e-12)
+
+
+def test_turning_in_place_against_the_object_stays_physical() -> None:
+    """Regression: cylinder-cylinder contact once threw the robot up and spun it at 2000 deg/s
+    when the s-curve teacher started a turn while touching the object."""
+    from behavior_hmm.sim import make_env
+    from behavior_hmm.teach import Teacher
+
+    env = make_env("mujoco")
+    teacher = Teacher(env)
+    for angle in (-160.0, -120.0, 20.0, 80.0):
+        demo = teacher.demonstrate("turn-approach", angle, 0.0, seed=0).as_arrays()
+        assert np.max(np.abs(demo["angular_velocity"])) < 120.0  # the teacher turns at 45 deg/s
+        assert np.max(np.abs(np.r_[demo["left"], demo["right"]])) < 2.0  # far from 10 rad/s
