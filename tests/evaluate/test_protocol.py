@@ -72,3 +72,8 @@ def test_bc_reaches_goals_with_tolerance_stop(turn_data: Dataset) -> None:
     bc = BehaviorCloning(inputs=("angle",), epochs=40).fit(turn_data)
     trace = bc.generate(make_env("kinematic"), start={"angle": 80.0, "distance": 0.5}, seed=0)
     assert abs(trace.final_observation[2]) < 80.0  # it turned toward the object
+
+
+def test_command_scale_is_the_demonstrations_not_the_motor_limit(result: dict) -> None:
+    assert result["command_scale_at_motor_limit"] is False
+    assert result["command_scale"] < 0.5 * result["motor_max"]

@@ -156,6 +156,9 @@ def evaluate_model(
             "noise": noise,
             "command_scale": scale,
             "motor_max": motor_max,
+            # a demonstration that saturated the motors makes the headline the lenient
+            # motor-limit variant (DESIGN §6): flag it rather than report it silently
+            "command_scale_at_motor_limit": bool(scale >= 0.999 * motor_max),
             "cases": cases["model"],
             "baselines": {
                 name: {**_summary(cases[name]), "cases": cases[name]}

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from behavior_hmm.data import SENSOR_CHANNELS
 from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.models import SBLM
-from behavior_hmm.models._goals import within_tolerance
+from behavior_hmm.models._goals import TOLERANCES, within_tolerance
 
 FloatArray = NDArray[np.float64]
 
@@ -63,6 +63,7 @@ class SimpleController:
         # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
         self._stop_set = frozenset({self.goal_category})
         self._reachable_from = -1
+        self._at_rest = bool(getattr(model, "stop_at_rest", False))
         self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
         self._channels = model.inputs_
         self._pipe = model.pipeline_.online()
@@ -130,7 +131,9 @@ class SimpleController:
         if category in self._stop_set:
             filtered = (x + 1.0) / self._gain + self._lo
             values = dict(zip(self._channels, filtered.tolist(), strict=True))
-            if within_tolerance(values, self.goal):
+            if within_tolerance(values, self.goal) and (
+                not self._at_rest or _at_rest(reading)
+            ):
                 self._started = True
                 return StepOutput(_ZERO, category, novel, self._state, self.name, False, True)
         try:
@@ -196,6 +199,18 @@ class SimpleController:
         """Best-matching live primitive among those the plan allows (finite score)."""
         miss = np.where(np.isfinite(total), self._prim_miss, np.inf)
         return int(np.argmin(miss))
+
+
+_LIN = SENSOR_CHANNELS.index("linear_velocity")
+_ANG = SENSOR_CHANNELS.index("angular_velocity")
+
+
+def _at_rest(reading: FloatArray) -> bool:
+    """Whether a reading shows the robot (nearly) still: |yaw rate|, |speed| within tolerance."""
+    return bool(
+        abs(reading[_ANG]) <= TOLERANCES["angular_velocity"]
+        and abs(reading[_LIN]) <= TOLERANCES["linear_velocity"]
+    )
 
 
 def retarget(
