@@ -131,9 +131,7 @@ class SimpleController:
         if category in self._stop_set:
             filtered = (x + 1.0) / self._gain + self._lo
             values = dict(zip(self._channels, filtered.tolist(), strict=True))
-            if within_tolerance(values, self.goal) and (
-                not self._at_rest or _at_rest(reading)
-            ):
+            if within_tolerance(values, self.goal) and (not self._at_rest or _at_rest(reading)):
                 self._started = True
                 return StepOutput(_ZERO, category, novel, self._state, self.name, False, True)
         try:
