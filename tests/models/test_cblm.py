@@ -133,3 +133,56 @@ def test_bad_inputs(components: dict[str, Any], complex_data: Dataset) -> None:
 def test_sblm_file_is_not_a_cblm(components: dict[str, Any]) -> None:
     with pytest.raises(ModelFileError, match="not a CBLM"):
         CBLM.load(components["dir"] / "turn.bhmm")
+
+
+def test_push_during_approach_brings_turn_back(cblm: CBLM, kinematic_env: Any) -> None:
+    start = {"angle": 60.0, "distance": 0.7}
+    plain = cblm.generate(kinematic_env, start=start, seed=0)
+    first_approach = plain.component.index("approach")
+    push_step = first_approach + 60  # well into the approach
+    pushed = cblm.generate(
+        kinematic_env, start=start, seed=0, pushes=[{"step": push_step, "angle": 50.0}]
+    )
+    after = pushed.component[push_step + 1 :]
+    # the complex level re-plans: the bearing is off again, so turn runs again
+    assert "turn" in after
+    assert pushed.goal_reached
+    assert abs(pushed.final_observation[2]) <= 3.0
+
+
+def test_cli_trains_and_runs_a_complex_model(
+    components: dict[str, Any], complex_data: Dataset, tmp_path: Path
+) -> None:
+    from typer.testing import CliRunner
+
+    from behavior_hmm import data
+    from behavior_hmm.cli import app
+
+    data.write(complex_data, tmp_path / "ta.parquet")
+    runner = CliRunner()
+    folder = components["dir"]
+    before = {n: (folder / f"{n}.bhmm").read_bytes() for n in ("turn", "approach")}
+    res = runner.invoke(
+        app,
+        ["train", "complex", str(tmp_path / "ta.parquet"), "--component", str(folder / "turn.bhmm"),
+         "--component", str(folder / "approach.bhmm"), "--inputs", "distance,angle",
+         "-o", str(tmp_path / "ta.bhmm")],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(
+        app,
+        ["generate", str(tmp_path / "ta.bhmm"), "--start", "angle=70,distance=0.4",
+         "--sim", "kinematic", "-o", str(tmp_path / "run.parquet")],
+    )  # fmt: skip
+    assert res.exit_code in (0, 1), res.output
+    assert (tmp_path / "run.parquet").exists()
+    starts = tmp_path / "starts.csv"
+    starts.write_text("angle,distance,goal_distance\n50,0.6,0.0\n")
+    res = runner.invoke(
+        app,
+        ["evaluate", str(tmp_path / "ta.bhmm"), "--starts", str(starts), "--sim", "kinematic",
+         "--json", str(tmp_path / "eval.json")],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    for name in ("turn", "approach"):
+        assert (folder / f"{name}.bhmm").read_bytes() == before[name]
