@@ -8,7 +8,6 @@ never retrained or modified; the model file embeds their saved bytes unchanged.
 
 from __future__ import annotations
 
-import inspect
 import os
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -20,12 +19,13 @@ from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART
 from behavior_hmm.data import DEFAULT_CUTOFF_HZ, SENSOR_CHANNELS, Dataset, SignalPipeline
-from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError, NotFittedError
+from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
+from behavior_hmm.models._base import LearnedBehavior
+from behavior_hmm.models._goals import check_goal
 from behavior_hmm.models._sblm import (
     SBLM,
     _cobart_from,
@@ -47,7 +47,7 @@ def _component_name(model: Any) -> str:
     return str(getattr(model, "behavior_", "")) or type(model).__name__.lower()
 
 
-class CBLM:
+class CBLM(LearnedBehavior):
     """Complex-behavior learning model: learned behaviors as states of a Behavior-HMM.
 
     Parameters
@@ -103,11 +103,6 @@ class CBLM:
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
         self.random_state = random_state
-
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Constructor parameters by name (scikit-learn convention)."""
-        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
-        return {name: getattr(self, name) for name in names}
 
     def _checked(self) -> tuple[tuple[str, ...], list[Any], list[str]]:
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
@@ -192,10 +187,6 @@ class CBLM:
         return self
 
     # ----------------------------------------------------------------- queries
-    def _check_fitted(self) -> None:
-        if not hasattr(self, "hmm_"):
-            raise NotFittedError("this CBLM is not fitted yet; call fit first")
-
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
         """The goal in physical units on this model's inputs (default: angle 0, distance 0).
 
@@ -206,31 +197,6 @@ class CBLM:
         if goal is None:
             return dict(self.default_goal_)
         return {**self.default_goal_, **check_goal(goal, self.inputs_)}
-
-    def goal_window(self, goal: Mapping[str, float]) -> FloatArray:
-        """A still observation window at ``goal`` (normalized), other inputs at rest."""
-        values = [goal.get(c, self.rest_values_[c]) for c in self.inputs_]
-        reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
-        return np.repeat(reading, int(self.observations_.window), axis=0)
-
-    def goal_categories(self, goal: Mapping[str, float], limit: int = 64) -> NDArray[np.int64]:
-        """Candidate goal categories, best match first (see :func:`best_goal_category`).
-
-        The controllers plan to the first candidate that is reachable from where the
-        robot is: with fine categories, several categories describe being at the goal
-        (reached from different sides), and the best match may lie on another branch.
-        """
-        scores = self.observations_.score_window(self.goal_window(goal))
-        columns = [self.inputs_.index(c) for c in goal]
-        latest = self.observations_.prototypes_[:, -1, :][:, columns]
-        target = self.goal_window(goal)[-1, columns]
-        return goal_candidates(scores, self.hmm_.C_counts_, latest, target, limit)
-
-    def goal_category(self, goal: Mapping[str, float]) -> int:
-        """Observation category of a still window at ``goal``."""
-        self._check_fitted()
-        scores = self.observations_.score_window(self.goal_window(goal))
-        return best_goal_category(scores, self.hmm_.C_counts_)
 
     def category_values(self, category: int) -> dict[str, float]:
         """Physical value of each input at the end of an observation category's prototype."""

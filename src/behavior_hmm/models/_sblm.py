@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import itertools
 import os
 from collections.abc import Mapping, Sequence
@@ -19,17 +18,16 @@ from behavior_hmm.data import (
     Dataset,
     SignalPipeline,
 )
-from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
+from behavior_hmm.errors import ConfigError, ModelFileError
 from behavior_hmm.generators import MotionGenerators, make_windows
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
+from behavior_hmm.models._base import LearnedBehavior
 from behavior_hmm.models._goals import (
     TOLERANCES,
-    best_goal_category,
     check_goal,
-    goal_candidates,
 )
 
 FloatArray = NDArray[np.float64]
@@ -111,7 +109,7 @@ def shifted_windows(
     return noisy
 
 
-class SBLM:
+class SBLM(LearnedBehavior):
     """Simple-behavior learning model: CobART + Behavior-HMM + motion generators.
 
     Parameters
@@ -249,20 +247,6 @@ class SBLM:
         self.random_state = random_state
 
     # ------------------------------------------------------------------ params
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Constructor parameters by name (scikit-learn convention)."""
-        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
-        return {name: getattr(self, name) for name in names}
-
-    def set_params(self, **params: Any) -> SBLM:
-        """Set constructor parameters; returns ``self``."""
-        valid = self.get_params()
-        for name, value in params.items():
-            if name not in valid:
-                raise ConfigError(f"unknown parameter {name!r} for {type(self).__name__}")
-            setattr(self, name, value)
-        return self
-
     def _checked_inputs(self) -> tuple[str, ...]:
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
         if not inputs:
@@ -460,41 +444,12 @@ class SBLM:
         return goal
 
     # ----------------------------------------------------------------- queries
-    def _check_fitted(self) -> None:
-        if not hasattr(self, "hmm_"):
-            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit first")
-
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
         """The goal in physical units on this model's input channels (default: demos' end)."""
         self._check_fitted()
         if goal is None:
             return dict(self.default_goal_)
         return check_goal(goal, self.inputs_)
-
-    def goal_window(self, goal: Mapping[str, float]) -> FloatArray:
-        """A still observation window at ``goal`` (normalized), other inputs at rest."""
-        self._check_fitted()
-        values = [goal.get(c, self.rest_values_[c]) for c in self.inputs_]
-        reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
-        return np.repeat(reading, int(self.observations_.window), axis=0)
-
-    def goal_categories(self, goal: Mapping[str, float], limit: int = 64) -> NDArray[np.int64]:
-        """Candidate goal categories, best match first (see :func:`best_goal_category`).
-
-        The controllers plan to the first candidate that is reachable from where the
-        robot is: with fine categories, several categories describe being at the goal
-        (reached from different sides), and the best match may lie on another branch.
-        """
-        scores = self.observations_.score_window(self.goal_window(goal))
-        columns = [self.inputs_.index(c) for c in goal]
-        latest = self.observations_.prototypes_[:, -1, :][:, columns]
-        target = self.goal_window(goal)[-1, columns]
-        return goal_candidates(scores, self.hmm_.C_counts_, latest, target, limit)
-
-    def goal_category(self, goal: Mapping[str, float]) -> int:
-        """Observation category of a still window at ``goal`` (thesis Algorithm 1, o_g)."""
-        scores = self.observations_.score_window(self.goal_window(goal))
-        return best_goal_category(scores, self.hmm_.C_counts_)
 
     # -------------------------------------------------------------- generation
     def generate(

@@ -1,0 +1,70 @@
+"""What SBLM and CBLM share: parameters, the fitted check and goal observations."""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from behavior_hmm.errors import ConfigError, NotFittedError
+from behavior_hmm.models._goals import best_goal_category, goal_candidates
+
+
+class LearnedBehavior:
+    """Base of the learned behaviors: scikit-learn parameters and goal observations.
+
+    Subclasses set, when fitted, ``inputs_``, ``pipeline_``, ``observations_`` (a
+    CobART), ``hmm_``, ``rest_values_`` and ``default_goal_``.
+    """
+
+    inputs_: tuple[str, ...]
+    pipeline_: Any
+    observations_: Any
+    hmm_: Any
+    rest_values_: dict[str, float]
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Constructor parameters by name (scikit-learn convention)."""
+        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
+        return {name: getattr(self, name) for name in names}
+
+    def set_params(self, **params: Any) -> Any:
+        """Set constructor parameters; returns ``self``."""
+        valid = self.get_params()
+        for name, value in params.items():
+            if name not in valid:
+                raise ConfigError(f"unknown parameter {name!r} for {type(self).__name__}")
+            setattr(self, name, value)
+        return self
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "hmm_"):
+            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit first")
+
+    def goal_window(self, goal: Mapping[str, float]) -> NDArray[np.float64]:
+        """A still observation window at ``goal`` (normalized), other inputs at rest."""
+        self._check_fitted()
+        values = [goal.get(c, self.rest_values_[c]) for c in self.inputs_]
+        reading = self.pipeline_.normalizer.transform(np.asarray([values], dtype=np.float64))
+        return np.repeat(reading, int(self.observations_.window), axis=0)
+
+    def goal_category(self, goal: Mapping[str, float]) -> int:
+        """Observation category of a still window at ``goal`` (thesis Algorithm 1, o_g)."""
+        scores = self.observations_.score_window(self.goal_window(goal))
+        return best_goal_category(scores, self.hmm_.C_counts_)
+
+    def goal_categories(self, goal: Mapping[str, float], limit: int = 64) -> NDArray[np.int64]:
+        """Candidate goal categories, best match first (see :func:`goal_candidates`).
+
+        The controllers plan to the first candidate that is reachable from where the
+        robot is: with fine categories, several categories describe being at the goal
+        (reached from different sides), and the best match may lie on another branch.
+        """
+        window = self.goal_window(goal)
+        scores = self.observations_.score_window(window)
+        columns = [self.inputs_.index(c) for c in goal]
+        latest = self.observations_.prototypes_[:, -1, :][:, columns]
+        return goal_candidates(scores, self.hmm_.C_counts_, latest, window[-1, columns], limit)
