@@ -239,14 +239,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.viz import write_simple_report
 
         _check_sim(sim)
-        with progress() as bar:
-            task = bar.add_task(f"experiment simple ({sim})", total=None)
-            results = run_simple_experiment(
-                sim=sim,
-                seed=seed,
-                noise=noise,
-                progress=lambda d, t: bar.update(task, completed=d, total=t),
-            )
+        results = _with_progress(
+            progress, f"experiment simple ({sim})", run_simple_experiment, sim, seed, noise
+        )
         typer.echo(write_simple_report(results, out))
         typer.echo(f"results: {out}/results.json, figures and table.md")
 
@@ -265,14 +260,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.viz import write_complex_report
 
         _check_sim(sim)
-        with progress() as bar:
-            task = bar.add_task(f"experiment complex ({sim})", total=None)
-            results = run_complex_experiment(
-                sim=sim,
-                seed=seed,
-                noise=noise,
-                progress=lambda d, t: bar.update(task, completed=d, total=t),
-            )
+        results = _with_progress(
+            progress, f"experiment complex ({sim})", run_complex_experiment, sim, seed, noise
+        )
         typer.echo(write_complex_report(results, out))
         typer.echo(f"results: {out}/results.json, figures and table.md")
 
@@ -338,6 +328,25 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         typer.echo("figures: " + ", ".join(figures.values()))
 
     app.add_typer(experiment_app, name="experiment")
+
+
+def _with_progress(
+    progress: Callable[[], Any],
+    label: str,
+    experiment: Callable[..., dict[str, Any]],
+    sim: str,
+    seed: int,
+    noise: float,
+) -> dict[str, Any]:
+    """Run an experiment function under a progress bar."""
+    with progress() as bar:
+        task = bar.add_task(label, total=None)
+        return experiment(
+            sim=sim,
+            seed=seed,
+            noise=noise,
+            progress=lambda d, t: bar.update(task, completed=d, total=t),
+        )
 
 
 def _baselines(names: list[str], model: Any, data: Path | None, seed: int) -> dict[str, Any]:

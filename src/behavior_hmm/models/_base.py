@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import inspect
+import os
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.errors import ConfigError, NotFittedError
+from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
+from behavior_hmm.models import _modelfile
 from behavior_hmm.models._goals import best_goal_category, goal_candidates
 
 
@@ -39,6 +41,33 @@ class LearnedBehavior:
                 raise ConfigError(f"unknown parameter {name!r} for {type(self).__name__}")
             setattr(self, name, value)
         return self
+
+    kind = "model"
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Any:
+        """Read a model written by ``save``; everything is validated (components included).
+
+        Raises
+        ------
+        ModelFileError
+            Missing, corrupted, tampered, of another kind or version, or inconsistent.
+        """
+        header, arrays = _modelfile.load(path)
+        if header["kind"] != cls.kind:
+            raise ModelFileError(f"{path}: holds a {header['kind']}, not a {cls.kind}")
+        try:
+            return cls._from_state(header["params"], header["state"], arrays)
+        except ModelFileError as err:
+            raise ModelFileError(f"{path}: {err}") from None
+        except (ConfigError, KeyError, TypeError, ValueError, IndexError) as err:
+            raise ModelFileError(f"{path}: invalid model contents ({err})") from None
+
+    @classmethod
+    def _from_state(
+        cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, Any]
+    ) -> Any:
+        raise NotImplementedError
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "hmm_"):

@@ -284,19 +284,6 @@ class CBLM(LearnedBehavior):
         _modelfile.dump(path, self.kind, params, state, arrays)
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> CBLM:
-        """Read a model written by :meth:`save`, components included; all validated."""
-        header, arrays = _modelfile.load(path)
-        if header["kind"] != cls.kind:
-            raise ModelFileError(f"{path}: holds a {header['kind']}, not a {cls.kind}")
-        try:
-            return cls._from_state(header["params"], header["state"], arrays)
-        except ModelFileError as err:
-            raise ModelFileError(f"{path}: {err}") from None
-        except (ConfigError, KeyError, TypeError, ValueError, IndexError) as err:
-            raise ModelFileError(f"{path}: invalid model contents ({err})") from None
-
-    @classmethod
     def _from_state(
         cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
     ) -> CBLM:

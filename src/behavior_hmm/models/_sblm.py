@@ -502,19 +502,6 @@ class SBLM(LearnedBehavior):
         _modelfile.dump(path, self.kind, _jsonable_params(self.get_params()), state, arrays)
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> SBLM:
-        """Read a model written by :meth:`save`; everything is validated."""
-        header, arrays = _modelfile.load(path)
-        if header["kind"] != cls.kind:
-            raise ModelFileError(f"{path}: holds a {header['kind']}, not an {cls.kind}")
-        try:
-            return cls._from_state(header["params"], header["state"], arrays)
-        except ModelFileError as err:
-            raise ModelFileError(f"{path}: {err}") from None
-        except (ConfigError, KeyError, TypeError, ValueError, IndexError) as err:
-            raise ModelFileError(f"{path}: invalid model contents ({err})") from None
-
-    @classmethod
     def _from_state(
         cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
     ) -> SBLM:
