@@ -1,0 +1,51 @@
+"""The thesis experiments run from the command line (kinematic robot; slow)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from behavior_hmm.cli import app
+
+runner = CliRunner()
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.slow
+def test_experiment_categorization(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["experiment", "categorization", "--sim", "kinematic", "-o", tmp_path])
+    assert res.exit_code == 0, res.output
+    summary = json.loads((tmp_path / "categorization.json").read_text())
+    runs = {run["rho"]: run for run in summary["runs"]}
+    # a higher vigilance gives finer primitives, and the table 6.1 starts get sequences
+    assert runs[0.85]["n_primitives"] > runs[0.75]["n_primitives"]
+    assert len(runs[0.85]["sequences"]) == 4
+    assert runs[0.85]["same_direction_share_tail"]
+    for name in ("categories_rho085", "transitions_rho075"):
+        assert (tmp_path / f"{name}.png").read_bytes()[:8] == PNG
+
+
+@pytest.mark.slow
+def test_experiment_generators(tmp_path: Path) -> None:
+    res = runner.invoke(
+        app, ["experiment", "generators", "--sim", "kinematic", "--epochs", "3", "-o", tmp_path]
+    )
+    assert res.exit_code == 0, res.output
+    assert "momentum sweep" in res.output
+    for sweep in ("learning_rate", "momentum", "hidden"):
+        assert (tmp_path / f"generator_sweep_{sweep}.png").read_bytes()[:8] == PNG
+
+
+@pytest.mark.slow
+def test_experiment_simple_beats_the_thesis_on_the_kinematic_robot(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["experiment", "simple", "--sim", "kinematic", "-o", tmp_path])
+    assert res.exit_code == 0, res.output
+    rows = json.loads((tmp_path / "results.json").read_text())["rows"]
+    assert len(rows) == 5
+    for row in rows:
+        assert row["sblm"] > row["thesis"], row
+        assert row["sblm"] > row["zero_floor"] + 30, row
+        assert row["sblm_goal_reached"] == row["n"], row
