@@ -172,6 +172,7 @@ class CBLM(LearnedBehavior):
         self.names_ = names
         self.pipeline_ = pipeline
         self.observations_ = obs
+        self.__dict__.pop("_latest_physical", None)  # cache of category_values
         self.hmm_ = hmm
         self.command_scale_ = float(np.max(np.abs(dataset.commands))) or 1.0
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
@@ -201,10 +202,13 @@ class CBLM(LearnedBehavior):
     def category_values(self, category: int) -> dict[str, float]:
         """Physical value of each input at the end of an observation category's prototype."""
         self._check_fitted()
-        table = self.pipeline_.normalizer.ranges or {}
-        ranges = np.array([table[c] for c in self.inputs_], dtype=np.float64)
-        proto = self.observations_.prototypes_physical(ranges)[category, -1]
-        return {c: float(proto[j]) for j, c in enumerate(self.inputs_)}
+        latest = self.__dict__.get("_latest_physical")
+        if latest is None:  # computed once: the runtime asks every cycle
+            table = self.pipeline_.normalizer.ranges or {}
+            ranges = np.array([table[c] for c in self.inputs_], dtype=np.float64)
+            latest = self.observations_.prototypes_physical(ranges)[:, -1, :].copy()
+            self._latest_physical = latest
+        return {c: float(latest[category, j]) for j, c in enumerate(self.inputs_)}
 
     def component_goal(
         self,

@@ -60,6 +60,7 @@ class SimpleController:
         self._goal_candidates = model.goal_categories(self.goal)
         self.goal_category = int(self._goal_candidates[0])
         self._goal_set = frozenset(int(k) for k in self._goal_candidates)
+        model.hmm_.prepare_goals(self._goal_candidates)  # planning cost before any motion
         # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
         self._stop_set = frozenset({self.goal_category})
         self._reachable_from = -1
