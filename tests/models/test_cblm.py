@@ -186,3 +186,15 @@ def test_cli_trains_and_runs_a_complex_model(
     assert res.exit_code == 0, res.output
     for name in ("turn", "approach"):
         assert (folder / f"{name}.bhmm").read_bytes() == before[name]
+
+
+@pytest.mark.parametrize("angle", [8.0, -10.0, 14.0])
+def test_a_start_off_the_bearing_turns_before_approaching(
+    cblm: CBLM, kinematic_env: Any, angle: float
+) -> None:
+    # a still window a few degrees off can look like an aligned start to the categories;
+    # the turn must still come first, since nothing in the demonstrations turns after
+    # approaching
+    trace = cblm.generate(kinematic_env, start={"angle": angle, "distance": 0.3}, seed=0)
+    assert trace.component[0] == "turn"
+    assert trace.goal_reached

@@ -109,12 +109,14 @@ def goal_candidates(
     return np.asarray(out[:limit], dtype=np.int64)
 
 
-def within_tolerance(values: Mapping[str, float], goal: Mapping[str, float]) -> bool:
-    """True when every goal channel of ``values`` lies within its physical tolerance."""
+def within_tolerance(
+    values: Mapping[str, float], goal: Mapping[str, float], scale: float = 1.0
+) -> bool:
+    """True when every goal channel of ``values`` lies within ``scale`` times its tolerance."""
     for name, target in goal.items():
         error = values[name] - target
         if name == "angle":
             error = (error + 180.0) % 360.0 - 180.0
-        if abs(error) > TOLERANCES[name]:
+        if abs(error) > scale * TOLERANCES[name]:
             return False
     return True

@@ -10,12 +10,16 @@ from numpy.typing import NDArray
 
 from behavior_hmm.data import SENSOR_CHANNELS
 from behavior_hmm.errors import UnreachableGoalError
-from behavior_hmm.models._goals import TOLERANCES, within_tolerance
+from behavior_hmm.models._goals import within_tolerance
 from behavior_hmm.runtime._simple import StepOutput, make_controller, retarget
 
 FloatArray = NDArray[np.float64]
 
 _ZERO = np.zeros(2)
+
+#: Control cycles the plan must ask for another component before a running one is replaced
+#: (8 cycles = 128 ms).
+SWITCH_CYCLES = 8
 
 
 class ComplexController:
@@ -39,11 +43,20 @@ class ComplexController:
         Goal in physical units on the CBLM's inputs; ``None`` uses its default.
     name
         Name recorded in traces when this CBLM is itself a component.
+    tolerance
+        Scale of the goal's physical tolerance (a parent's repair asks for 0.5).
     """
 
-    def __init__(self, model: Any, goal: Mapping[str, float] | None, name: str = "") -> None:
+    def __init__(
+        self,
+        model: Any,
+        goal: Mapping[str, float] | None,
+        name: str = "",
+        tolerance: float = 1.0,
+    ) -> None:
         self.model = model
         self.name = name
+        self._tolerance = float(tolerance)
         self.goal = model.resolve_goal(goal)
         self._goal_candidates = model.goal_categories(self.goal)
         self.goal_category = int(self._goal_candidates[0])
@@ -69,6 +82,9 @@ class ComplexController:
         self._finished: dict[int, dict[str, float]] = {}
         self._reachable_from = -1
         self._unable: set[int] = set()
+        self._handed_back = False
+        self._insist, self._wanted = 0, -1
+        self._committed = False
 
     def _plannable(self, category: int) -> int:
         """``category``, or the next-best match of the current window a plan can start from.
@@ -109,12 +125,15 @@ class ComplexController:
             category = self._plannable(category)
             self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
-        at_goal = within_tolerance(values, self.goal)
-        if category in self._stop_set and at_goal:
+        at_goal = within_tolerance(values, self.goal, self._tolerance)
+        if at_goal and (category in self._stop_set or self._handed_back):
+            # the goal category with the goal's tolerance (thesis + DESIGN §5), or a
+            # component has just finished with the complex goal's tolerance holding
             return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
+        self._handed_back = False
         # A finished component whose goal no longer holds (e.g. after a push) runs again.
         for comp, sub_goal in list(self._finished.items()):
-            if not _within(values, sub_goal, 1.0):
+            if not within_tolerance(values, sub_goal):
                 del self._finished[comp]
         plan = None
         try:
@@ -134,6 +153,29 @@ class ComplexController:
                 return self._repair(values, reading, category, novel)
             return self._run_child(reading, category, novel, changed=False)
         segment = segments[0]
+        running = self._child is not None and self._active not in self._finished
+        if running and self._committed:
+            # a component run to close a gap the plan missed finishes its job first
+            return self._run_child(reading, category, novel, changed=False)
+        if not running:
+            fix = self._uncovered(values, [s.state for s in segments])
+            if fix is not None:
+                sub_goal = {
+                    c: self.goal.get(c, v)
+                    for c, v in self.model.components_[fix].default_goal_.items()
+                }
+                out = self._delegate(fix, sub_goal, reading, category, novel, renew=True)
+                self._committed = True
+                return out
+        if running and segment.state != self._active:
+            # Debounce: near a category border the plan can flip every few cycles; a
+            # running component is replaced only when the plan insists for a while.
+            self._insist = self._insist + 1 if self._wanted == segment.state else 1
+            self._wanted = segment.state
+            if self._insist < SWITCH_CYCLES:
+                return self._run_child(reading, category, novel, changed=False)
+        self._insist, self._wanted = 0, -1
+        self._committed = False
         sub_goal = self.model.component_goal(
             segment.state,
             segment.exit_observation,
@@ -141,6 +183,36 @@ class ComplexController:
             final=segment.exit_observation in self._goal_set,
         )
         return self._delegate(segment.state, sub_goal, reading, category, novel)
+
+    def _uncovered(self, values: Mapping[str, float], planned: list[int]) -> int | None:
+        """A component to run first because the plan cannot close a gap of the goal.
+
+        At a decision point (nothing running), a goal channel outside its tolerance
+        must be closed by some planned component, judged by the components' learned
+        effects (a substantial share of the best effect); e.g. a start 9 deg off the
+        object whose still window looks aligned gets "approach" planned, but approach
+        does not turn, and in the demonstrations nothing turns after it. Then the
+        component that closes that gap best runs first. ``None``: the plan covers it.
+        """
+        effects = self.model.effects_
+        for channel in self.goal:
+            if within_tolerance(values, {channel: self.goal[channel]}, self._tolerance):
+                continue
+            j = self._channels.index(channel)
+            error = values[channel] - self.goal[channel]
+            needed = -1.0 if channel == "angle" else -np.sign(error)
+            gain = needed * effects[:, j]
+            able = [
+                k
+                for k in np.argsort(-gain, kind="stable").tolist()
+                if gain[k] > 0
+                and gain[k] >= 0.1 * gain.max()
+                and channel in self.model.components_[k].default_goal_
+                and k not in self._unable
+            ]
+            if able and not any(k in able for k in planned):
+                return int(able[0])
+        return None
 
     def _repair(
         self, values: Mapping[str, float], reading: FloatArray, category: int, novel: bool
@@ -150,7 +222,7 @@ class ComplexController:
         Components are tried in order; one that cannot reach the goal from here (its
         own plan is unreachable, e.g. an approach asked to back away) is skipped.
         """
-        missed = [c for c in self.goal if not _within(values, {c: self.goal[c]}, 1.0)]
+        missed = [c for c in self.goal if not within_tolerance(values, {c: self.goal[c]})]
         effects = self.model.effects_
         for channel in missed:
             j = self._channels.index(channel)
@@ -168,7 +240,10 @@ class ComplexController:
                     continue
                 sub_goal = {c: self.goal.get(c, v) for c, v in component.default_goal_.items()}
                 self._finished.pop(comp, None)
-                out = self._delegate(comp, sub_goal, reading, category, novel, renew=True)
+                # a repair aims well inside the tolerance, or the next drift undoes it
+                out = self._delegate(
+                    comp, sub_goal, reading, category, novel, renew=True, tolerance=0.5
+                )
                 if comp not in self._finished:  # it runs: no UnreachableGoalError
                     return out
                 self._unable.add(comp)
@@ -182,11 +257,14 @@ class ComplexController:
         category: int,
         novel: bool,
         renew: bool = False,
+        tolerance: float = 1.0,
     ) -> StepOutput:
         changed = comp != self._active or renew
         if changed:
             component = self.model.components_[comp]
-            self._child = make_controller(component, sub_goal, name=self.model.names_[comp])
+            self._child = make_controller(
+                component, sub_goal, name=self.model.names_[comp], tolerance=tolerance
+            )
             self._child.reset()
             self._active = comp
         return self._run_child(reading, category, novel, changed)
@@ -202,15 +280,7 @@ class ComplexController:
             return StepOutput(_ZERO, category, novel, self._active, self.name, changed, False)
         if out.done:
             self._finished[self._active] = dict(self._child.goal)
+            self._handed_back = True
+            self._committed = False
         label = out.component or self.model.names_[self._active]
         return StepOutput(out.command, category, novel, self._active, label, changed, False)
-
-
-def _within(values: Mapping[str, float], goal: Mapping[str, float], factor: float) -> bool:
-    for name, target in goal.items():
-        error = values[name] - target
-        if name == "angle":
-            error = (error + 180.0) % 360.0 - 180.0
-        if abs(error) > factor * TOLERANCES[name]:
-            return False
-    return True

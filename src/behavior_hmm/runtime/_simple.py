@@ -51,9 +51,18 @@ class SimpleController:
         Goal in physical units on the model's inputs; ``None`` uses the model's default.
     name
         Component name recorded in traces (set by a complex model).
+    tolerance
+        Scale of the goal's physical tolerance in the stop rule (1: DESIGN §5's 3 deg /
+        0.01 m; a complex model repairing a drifted channel asks for 0.5).
     """
 
-    def __init__(self, model: SBLM, goal: Mapping[str, float] | None, name: str = "") -> None:
+    def __init__(
+        self,
+        model: SBLM,
+        goal: Mapping[str, float] | None,
+        name: str = "",
+        tolerance: float = 1.0,
+    ) -> None:
         self.model = model
         self.name = name
         self.goal = model.resolve_goal(goal)
@@ -65,6 +74,7 @@ class SimpleController:
         self._stop_set = frozenset({self.goal_category})
         self._reachable_from = -1
         self._at_rest = bool(getattr(model, "stop_at_rest", False))
+        self._tolerance = float(tolerance)
         self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
         self._channels = model.inputs_
         self._pipe = model.pipeline_.online()
@@ -132,7 +142,9 @@ class SimpleController:
         if category in self._stop_set:
             filtered = (x + 1.0) / self._gain + self._lo
             values = dict(zip(self._channels, filtered.tolist(), strict=True))
-            if within_tolerance(values, self.goal) and (not self._at_rest or _at_rest(reading)):
+            if within_tolerance(values, self.goal, self._tolerance) and (
+                not self._at_rest or _at_rest(reading)
+            ):
                 self._started = True
                 return StepOutput(_ZERO, category, novel, self._state, self.name, False, True)
         try:
@@ -262,10 +274,12 @@ def retarget(
         )
 
 
-def make_controller(model: Any, goal: Mapping[str, float] | None, name: str = "") -> Any:
-    """The controller for a fitted SBLM or CBLM."""
+def make_controller(
+    model: Any, goal: Mapping[str, float] | None, name: str = "", tolerance: float = 1.0
+) -> Any:
+    """The controller for a fitted SBLM or CBLM (``tolerance`` scales the stop tolerance)."""
     if getattr(model, "kind", None) == "CBLM":
         from behavior_hmm.runtime._complex import ComplexController
 
-        return ComplexController(model, goal, name=name)
-    return SimpleController(model, goal, name=name)
+        return ComplexController(model, goal, name=name, tolerance=tolerance)
+    return SimpleController(model, goal, name=name, tolerance=tolerance)
