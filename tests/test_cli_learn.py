@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 from pathlib import Path
 
@@ -105,6 +106,22 @@ def test_evaluate_with_bc_baseline_writes_json(workdir: Path) -> None:
     result = json.loads(out.read_text())
     assert result["n"] == 2 and "bc" in result["baselines"]
     assert "zero_floor_mean" in result and "success_rate_motor_max_mean" in result
+
+
+def test_evaluate_writes_a_self_contained_html_report(workdir: Path) -> None:
+    starts = workdir / "report.csv"
+    starts.write_text("angle\n35\n-95\n")
+    page = workdir / "report.html"
+    res = runner.invoke(
+        app,
+        ["evaluate", str(workdir / "turn.bhmm"), "--starts", str(starts), "--sim", "kinematic",
+         "--report", str(page)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    text = page.read_text(encoding="utf-8")
+    assert "zero floor" in text and "goals reached" in text
+    assert text.count("<img") == 2 and "data:image/png;base64," in text
+    assert "{'angle': 35.0, 'distance': 0.5}" in html.unescape(text)  # escaped in the page
 
 
 @pytest.mark.parametrize(

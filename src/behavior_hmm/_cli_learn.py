@@ -196,6 +196,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             Path | None, typer.Option(help="Training data for baselines (default: the model's)")
         ] = None,
         json_out: Annotated[Path | None, typer.Option("--json", help="Write results")] = None,
+        report: Annotated[
+            Path | None, typer.Option(help="Write an HTML report (tables and plots)")
+        ] = None,
     ) -> None:
         """Score a model (and baselines) against the teacher from test starts."""
         from behavior_hmm._atomic import atomic_write_bytes
@@ -218,10 +221,17 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 noise=noise,
                 baselines=baselines,
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
+                keep_traces=report is not None,
             )
+        traces = result.pop("_traces", None)
         text = json.dumps(result, indent=1, default=float)
         if json_out is not None:
             atomic_write_bytes(json_out, text.encode())
+        if report is not None:
+            from behavior_hmm.viz import write_evaluation_report
+
+            write_evaluation_report(result, traces, report)
+            typer.echo(f"report: {report}")
         _print_evaluation(result)
 
     @experiment_app.command("simple")

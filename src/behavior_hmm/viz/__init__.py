@@ -1,6 +1,7 @@
 """Plots and reports (matplotlib's object API, headless-safe)."""
 
 from behavior_hmm.viz._demonstrations import DEFAULT_PLOT_CHANNELS, plot_demonstrations
+from behavior_hmm.viz._html import write_evaluation_report
 from behavior_hmm.viz._learning_curves import plot_generator_sweeps, plot_learning_curves
 from behavior_hmm.viz._reports import (
     complex_table,
@@ -25,5 +26,6 @@ __all__ = [
     "plot_trace",
     "simple_table",
     "write_complex_report",
+    "write_evaluation_report",
     "write_simple_report",
 ]
