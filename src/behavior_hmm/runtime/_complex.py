@@ -11,7 +11,12 @@ from numpy.typing import NDArray
 from behavior_hmm.data import SENSOR_CHANNELS
 from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.models._goals import within_tolerance
-from behavior_hmm.runtime._simple import StepOutput, make_controller, retarget
+from behavior_hmm.runtime._simple import (
+    GoalTracking,
+    StepOutput,
+    make_controller,
+    retarget,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -22,7 +27,7 @@ _ZERO = np.zeros(2)
 SWITCH_CYCLES = 8
 
 
-class ComplexController:
+class ComplexController(GoalTracking):
     """Runs a CBLM: plans over its own observation categories, delegates to components.
 
     Each cycle it categorizes the current observation window with its own CobART,
@@ -57,13 +62,7 @@ class ComplexController:
         self.model = model
         self.name = name
         self._tolerance = float(tolerance)
-        self.goal = model.resolve_goal(goal)
-        self._goal_candidates = model.goal_categories(self.goal)
-        self.goal_category = int(self._goal_candidates[0])
-        self._goal_set = frozenset(int(k) for k in self._goal_candidates)
-        model.hmm_.prepare_goals(self._goal_candidates)  # planning cost before any motion
-        # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
-        self._stop_set = frozenset({self.goal_category})
+        self._set_goal(model, goal)
         self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
         self._channels = model.inputs_
         self._pipe = model.pipeline_.online()

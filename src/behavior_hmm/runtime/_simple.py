@@ -30,7 +30,29 @@ class StepOutput(NamedTuple):
     done: bool
 
 
-class SimpleController:
+class GoalTracking:
+    """The goal part of a controller: goal, goal categories, stop set (see retarget)."""
+
+    goal: dict[str, float]
+    goal_category: int
+    _goal_candidates: NDArray[np.int64]
+    _goal_set: frozenset[int]
+    _stop_set: frozenset[int]
+    _reachable_from: int
+
+    def _set_goal(self, model: Any, goal: Mapping[str, float] | None) -> None:
+        """Resolve the goal and its categories; build their planning trees before motion."""
+        self.goal = model.resolve_goal(goal)
+        self._goal_candidates = model.goal_categories(self.goal)
+        self.goal_category = int(self._goal_candidates[0])
+        self._goal_set = frozenset(int(k) for k in self._goal_candidates)
+        model.hmm_.prepare_goals(self._goal_candidates)
+        # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
+        self._stop_set = frozenset({self.goal_category})
+        self._reachable_from = -1
+
+
+class SimpleController(GoalTracking):
     """Runs an SBLM toward a goal one 16 ms reading at a time.
 
     Each cycle: filter and normalize the reading exactly as in training, categorize
@@ -65,14 +87,7 @@ class SimpleController:
     ) -> None:
         self.model = model
         self.name = name
-        self.goal = model.resolve_goal(goal)
-        self._goal_candidates = model.goal_categories(self.goal)
-        self.goal_category = int(self._goal_candidates[0])
-        self._goal_set = frozenset(int(k) for k in self._goal_candidates)
-        model.hmm_.prepare_goals(self._goal_candidates)  # planning cost before any motion
-        # the thesis's stop test (o_c == o_g) until the goal had to be retargeted
-        self._stop_set = frozenset({self.goal_category})
-        self._reachable_from = -1
+        self._set_goal(model, goal)
         self._at_rest = bool(getattr(model, "stop_at_rest", False))
         self._tolerance = float(tolerance)
         self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
