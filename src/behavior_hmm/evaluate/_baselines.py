@@ -20,7 +20,13 @@ from behavior_hmm.errors import ConfigError, NotFittedError
 from behavior_hmm.generators import MotionGenerators, make_windows
 from behavior_hmm.models._goals import check_goal, within_tolerance
 from behavior_hmm.models._sblm import command_features, onset_features, shifted_windows
-from behavior_hmm.runtime import StepOutput, Trace, run_controller
+from behavior_hmm.runtime import (
+    DEFAULT_FAULT_HOLD_S,
+    StepOutput,
+    Trace,
+    channels_read,
+    run_controller,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -163,8 +169,13 @@ class BehaviorCloning:
         noise: float | None = None,
         max_steps: int | None = None,
         pushes: Sequence[Mapping[str, float]] | None = None,
+        fault_hold_s: float = DEFAULT_FAULT_HOLD_S,
     ) -> Trace:
-        """Drive ``env`` from ``start`` with the cloned policy until the goal tolerance."""
+        """Drive ``env`` from ``start`` with the cloned policy until the goal tolerance.
+
+        The keyword arguments are those of :func:`behavior_hmm.runtime.run_behavior`
+        (``fault_hold_s``: seconds a non-finite reading on an input is held).
+        """
         controller = _BCController(self, self.resolve_goal(goal))
         return run_controller(
             controller,
@@ -174,6 +185,8 @@ class BehaviorCloning:
             noise=noise,
             max_steps=int(max_steps or self.max_steps_),
             pushes=pushes,
+            fault_hold_s=fault_hold_s,
+            read_channels=channels_read(self),
         )
 
 

@@ -19,7 +19,8 @@ class Trace:
     Attributes
     ----------
     t : (n,) seconds since the start
-    readings : (n, 4) sensor readings (physical units, ``SENSOR_CHANNELS`` order)
+    readings : (n, 4) sensor readings as received (physical units, ``SENSOR_CHANNELS``
+        order; a non-finite reading stays as it came, see ``held``)
     true_readings : (n, 4) noise-free readings from the simulator
     observation : (n,) observation category at each step
     novel : (n,) whether the observation was below vigilance
@@ -27,9 +28,14 @@ class Trace:
     component : (n,) name of the active component ("" for an SBLM's own steps)
     commands : (n, 2) wheel commands sent (rad/s)
     plan_changed : (n,) True where the plan's first state changed
+    held : (n,) channels whose non-finite reading was replaced by their last good
+        value at each step (the sensor-fault policy; 0 almost always)
     goal : the goal (physical units)
     goal_reached : whether the final true state lies within tolerance of the goal
-    reason : ``"goal"`` or ``"step_limit"``
+        (never after a sensor fault)
+    reason : ``"goal"``, ``"step_limit"`` or ``"sensor_fault"`` (a read channel stayed
+        non-finite longer than the hold; the last step then records the stop)
+    fault_channels : the channels whose fault ended the run (empty otherwise)
     final_observation : (4,) noise-free readings after the final stop command
     """
 
@@ -42,10 +48,12 @@ class Trace:
     component: list[str] = field(default_factory=list)
     commands: list[NDArray[np.float64]] = field(default_factory=list)
     plan_changed: list[bool] = field(default_factory=list)
+    held: list[int] = field(default_factory=list)
     goal: dict[str, float] = field(default_factory=dict)
     start: dict[str, float] = field(default_factory=dict)
     goal_reached: bool = False
     reason: str = ""
+    fault_channels: list[str] = field(default_factory=list)
     final_observation: NDArray[np.float64] | None = None
 
     def __len__(self) -> int:
@@ -65,6 +73,11 @@ class Trace:
     def n_plan_changes(self) -> int:
         """Number of steps where the active state changed."""
         return int(np.sum(self.plan_changed))
+
+    @property
+    def held_readings(self) -> int:
+        """Readings (step x channel) replaced by their channel's last good value."""
+        return int(sum(self.held))
 
     def final_errors(self) -> dict[str, float]:
         """Final angle error (deg) and distance error (m) against the goal, noise-free."""
@@ -97,6 +110,8 @@ class Trace:
         cols["state"] = np.asarray(self.state, dtype=np.int64)
         cols["component"] = np.asarray(self.component, dtype=object)
         cols["plan_changed"] = np.asarray(self.plan_changed, dtype=bool)
+        # a trace recorded without the hold (built by hand) held nothing
+        cols["held"] = np.asarray(self.held or [0] * len(self.t), dtype=np.int64)
         return cols
 
     def summary(self) -> dict[str, Any]:
@@ -110,6 +125,8 @@ class Trace:
             "reason": self.reason,
             "final_errors": self.final_errors(),
             "plan_changes": self.n_plan_changes,
+            "held_readings": self.held_readings,
+            "fault_channels": list(self.fault_channels),
         }
 
     def write(self, path: str | os.PathLike[str]) -> None:
