@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Final
 
 import numpy as np
@@ -22,8 +22,16 @@ SIMPLE_CONFIGS: Final[tuple[tuple[str, tuple[str, ...], float], ...]] = (
     ("approach", ("distance", "angle", "linear_velocity"), 73.7),
 )
 
-#: Starts drawn in the generated-vs-demonstrated figures (thesis figs 6.8 and 6.9).
-FIGURE_STARTS: Final[dict[str, tuple[int, ...]]] = {"turn": (3, 12), "approach": (4, 10)}
+#: Starts of thesis figures 6.8 (turn from +100 and -100 deg) and 6.9 (approach from 0.7
+#: and 0.35 m). They lie on the training grids, not among the test starts; every input
+#: set is run from them, beside the teacher's demonstration from the same start.
+FIGURE_STARTS: Final[dict[str, tuple[dict[str, float], ...]]] = {
+    "turn": ({"angle": 100.0}, {"angle": -100.0}),
+    "approach": ({"distance": 0.7}, {"distance": 0.35}),
+}
+
+#: The channel each behavior steers, drawn in its figures.
+FIGURE_CHANNEL: Final[dict[str, str]] = {"turn": "angle", "approach": "distance"}
 
 
 def run_simple_experiment(
@@ -32,16 +40,22 @@ def run_simple_experiment(
     seed: int = 0,
     noise: float = 0.0,
     configs: tuple[tuple[str, tuple[str, ...], float], ...] = SIMPLE_CONFIGS,
+    sblm_params: Mapping[str, Any] | None = None,
     progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Collect the default datasets, train SBLM and BC per config, evaluate on the test starts.
+
+    ``sblm_params`` are SBLM constructor parameters (e.g. ``preset_params("thesis",
+    "SBLM")``) applied to every model; the default is the SBLM's defaults.
 
     Returns
     -------
     dict
         ``rows``: one summary per config (SBLM, BC, thesis figure, zero floor, timings);
-        ``evaluations``: the full evaluation dicts; ``figures``: generated and
-        demonstrated series for a few starts per behavior.
+        ``evaluations``: the full evaluation dicts; ``figure_starts``: the scores from
+        the :data:`FIGURE_STARTS`; ``figures``: generated and demonstrated series per
+        config (:func:`_figure_series`), ``"test_starts"`` (every test start, thesis
+        appendix B.1) and ``"thesis_starts"`` (figures 6.8 and 6.9).
     """
     from behavior_hmm.models import SBLM
     from behavior_hmm.teach import collect, test_starts
@@ -49,15 +63,16 @@ def run_simple_experiment(
     datasets = {b: collect(b, sim=sim, seed=seed) for b in sorted({c[0] for c in configs})}
     rows: list[dict[str, Any]] = []
     evaluations: list[dict[str, Any]] = []
-    figures: dict[str, Any] = {}
+    figures: dict[str, list[dict[str, Any]]] = {"test_starts": [], "thesis_starts": []}
+    figure_starts: list[dict[str, Any]] = []
     for i, (behavior, inputs, thesis) in enumerate(configs):
         dataset = datasets[behavior]
         t0 = time.perf_counter()
-        model = SBLM(inputs=inputs, random_state=seed).fit(dataset)
+        model = SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed})
+        model.fit(dataset)
         train_s = time.perf_counter() - t0
         bc = BehaviorCloning(inputs=inputs, random_state=seed).fit(dataset)
         starts = test_starts(behavior)
-        want_figure = behavior not in figures
         result = evaluate_model(
             model,
             starts,
@@ -65,10 +80,26 @@ def run_simple_experiment(
             seed=seed,
             noise=noise,
             baselines={"bc": bc},
-            keep_traces=want_figure,
+            keep_traces=True,
         )
-        if want_figure:
-            figures[behavior] = _figure_series(result.pop("_traces"), behavior, starts)
+        traces = result.pop("_traces")
+        figures["test_starts"].append(_figure_series(traces, behavior, inputs, result["cases"]))
+        if FIGURE_STARTS.get(behavior):
+            extra = evaluate_model(
+                model, FIGURE_STARTS[behavior], sim=sim, seed=seed, noise=noise, keep_traces=True
+            )
+            series = _figure_series(extra.pop("_traces"), behavior, inputs, extra["cases"])
+            figures["thesis_starts"].append(series)
+            figure_starts.extend(
+                {
+                    "behavior": behavior,
+                    "inputs": list(inputs),
+                    "start": case["start"],
+                    "success_rate": case["success_rate"],
+                    "goal_reached": case["goal_reached"],
+                }
+                for case in extra["cases"]
+            )
         evaluations.append(result)
         base = result["baselines"]["bc"]
         rows.append(
@@ -97,29 +128,44 @@ def run_simple_experiment(
         "noise": noise,
         "rows": rows,
         "evaluations": evaluations,
+        "figure_starts": figure_starts,
         "figures": figures,
     }
 
 
 def _figure_series(
-    traces: dict[str, list[Any]], behavior: str, starts: list[dict[str, float]]
-) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """Generated vs demonstrated channel for a few starts (the teacher replayed in the trace)."""
+    traces: dict[str, list[Any]],
+    behavior: str,
+    inputs: tuple[str, ...],
+    cases: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """The steered channel, generated and demonstrated, of every run of one config.
+
+    Returns ``behavior``, ``inputs``, ``channel`` and ``runs``: per start (in order)
+    ``start``, ``generated`` and ``demonstrated`` (arrays sampled every control period;
+    the demonstration is the teacher's run from the same start), ``success_rate`` and
+    ``goal_reached``.
+    """
     from behavior_hmm.data import SENSOR_CHANNELS
 
-    channel = "angle" if behavior == "turn" else "distance"
+    channel = FIGURE_CHANNEL.get(behavior, "angle")
     j = SENSOR_CHANNELS.index(channel)
-    series = []
-    for k in FIGURE_STARTS.get(behavior, (0,)):
-        if k >= len(traces["model"]):
-            continue
-        trace, demo = traces["model"][k]
-        label = ", ".join(f"{key} {value:g}" for key, value in trace.start.items())
-        series.append((label, trace.reading_array[:, j], np.asarray(demo[channel])))
-    return series
+    runs = []
+    for (trace, demo), case in zip(traces["model"], cases, strict=True):
+        runs.append(
+            {
+                "start": dict(trace.start),
+                "generated": np.asarray(trace.reading_array[:, j], dtype=float),
+                "demonstrated": np.asarray(demo[channel], dtype=float),
+                "success_rate": float(case["success_rate"]),
+                "goal_reached": bool(case["goal_reached"]),
+            }
+        )
+    return {"behavior": behavior, "inputs": list(inputs), "channel": channel, "runs": runs}
 
 
-#: Turn & approach starts drawn in the figure-6.10 analogue (indices into the test starts).
+#: Turn & approach starts drawn alone as the figure-6.10 analogue (indices into the test
+#: starts); every test start is drawn in the appendix B.3 grid.
 COMPLEX_FIGURE_STARTS: Final[tuple[int, ...]] = (13, 3)
 
 
@@ -128,6 +174,8 @@ def run_complex_experiment(
     sim: str = "mujoco",
     seed: int = 0,
     noise: float = 0.0,
+    sblm_params: Mapping[str, Any] | None = None,
+    cblm_params: Mapping[str, Any] | None = None,
     progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Thesis table 6.5 and beyond: turn & approach, position, and a nested composition.
@@ -155,12 +203,21 @@ def run_complex_experiment(
     behaviors = ("turn", "approach", "retreat", "turn-approach", "position")
     data = {b: collect(b, sim=sim, seed=seed) for b in behaviors}
     tick()
-    turn = SBLM(inputs=("angle",), random_state=seed).fit(data["turn"])
-    approach = SBLM(inputs=("distance", "angle"), random_state=seed).fit(data["approach"])
-    retreat = SBLM(inputs=("distance", "angle"), random_state=seed).fit(data["retreat"])
+    own = dict(sblm_params or {})
+
+    def simple(inputs: tuple[str, ...], behavior: str) -> Any:
+        return SBLM(**{**own, "inputs": inputs, "random_state": seed}).fit(data[behavior])
+
+    def complex_(components: list[Any], dataset: Any) -> Any:
+        params = {**dict(cblm_params or {}), "inputs": ("distance", "angle")}
+        return CBLM(components, **params).fit(dataset)
+
+    turn = simple(("angle",), "turn")
+    approach = simple(("distance", "angle"), "approach")
+    retreat = simple(("distance", "angle"), "retreat")
     tick()
     t0 = time.perf_counter()
-    ta = CBLM([turn, approach], inputs=("distance", "angle")).fit(data["turn-approach"])
+    ta = complex_([turn, approach], data["turn-approach"])
     train_ta_s = time.perf_counter() - t0
     bc = BehaviorCloning(inputs=("distance", "angle"), random_state=seed).fit(data["turn-approach"])
     ta_starts = test_starts("turn-approach")
@@ -169,11 +226,12 @@ def run_complex_experiment(
     )
     traces = ta_result.pop("_traces")
     figure = []
-    for k in COMPLEX_FIGURE_STARTS:
-        trace, demo = traces["model"][k]
+    for (trace, demo), case in zip(traces["model"], ta_result["cases"], strict=True):
         figure.append(
             {
                 "start": trace.start,
+                "success_rate": float(case["success_rate"]),
+                "goal_reached": bool(case["goal_reached"]),
                 "t": np.arange(len(trace)) * 0.016,
                 "angle": trace.reading_array[:, 2],
                 "distance": trace.reading_array[:, 0],
@@ -184,7 +242,7 @@ def run_complex_experiment(
             }
         )
     tick()
-    position = CBLM([turn, approach, retreat], inputs=("distance", "angle")).fit(data["position"])
+    position = complex_([turn, approach, retreat], data["position"])
     pos_starts = test_starts("position")
     pos_result = evaluate_model(position, pos_starts, sim=sim, seed=seed, noise=noise)
     tick()
@@ -197,7 +255,7 @@ def run_complex_experiment(
         cols["behavior"] = np.where(tags == "retreat", "retreat", "turn-approach")
         relabelled.append(cols)
     nested_data = Dataset.from_episodes(relabelled, metadata=data["position"].metadata)
-    nested = CBLM([ta, retreat], inputs=("distance", "angle")).fit(nested_data)
+    nested = complex_([ta, retreat], nested_data)
     nested_result = evaluate_model(nested, pos_starts, sim=sim, seed=seed, noise=noise)
     tick()
     retreat_result = evaluate_model(retreat, test_starts("retreat"), sim=sim, seed=seed)
@@ -227,6 +285,7 @@ def run_complex_experiment(
         "turn_approach_train_s": train_ta_s,
         "turn_approach_observations": int(ta.observations_.n_categories_),
         "figure": figure,
+        "figure_highlight": list(COMPLEX_FIGURE_STARTS),
         "position": {**split(pos_result), "evaluation": pos_result},
         "nested_position": {**split(nested_result), "evaluation": nested_result},
         "retreat": retreat_result,

@@ -1,6 +1,13 @@
 """Plots and reports (matplotlib's object API, headless-safe)."""
 
 from behavior_hmm.viz._demonstrations import DEFAULT_PLOT_CHANNELS, plot_demonstrations
+from behavior_hmm.viz._grids import (
+    draw_start_panel,
+    plot_complex_grid,
+    plot_start_grid,
+    plot_thesis_starts,
+    simple_panels,
+)
 from behavior_hmm.viz._html import write_evaluation_report
 from behavior_hmm.viz._learning_curves import plot_generator_sweeps, plot_learning_curves
 from behavior_hmm.viz._reports import (
@@ -18,12 +25,17 @@ from behavior_hmm.viz._traces import (
 __all__ = [
     "DEFAULT_PLOT_CHANNELS",
     "complex_table",
+    "draw_start_panel",
+    "plot_complex_grid",
     "plot_complex_run",
     "plot_demonstrations",
     "plot_generated_vs_demonstrated",
     "plot_generator_sweeps",
     "plot_learning_curves",
+    "plot_start_grid",
+    "plot_thesis_starts",
     "plot_trace",
+    "simple_panels",
     "simple_table",
     "write_complex_report",
     "write_evaluation_report",
