@@ -198,3 +198,73 @@ def test_a_start_off_the_bearing_turns_before_approaching(
     trace = cblm.generate(kinematic_env, start={"angle": angle, "distance": 0.3}, seed=0)
     assert trace.component[0] == "turn"
     assert trace.goal_reached
+
+
+def _count_calls(monkeypatch: pytest.MonkeyPatch, name: str) -> list[int]:
+    """Count calls of ComplexController.<name> (still running the original)."""
+    from behavior_hmm.runtime._complex import ComplexController
+
+    calls = [0]
+    original = getattr(ComplexController, name)
+
+    def spy(self: Any, *args: Any, **kwargs: Any) -> Any:
+        calls[0] += 1
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(ComplexController, name, spy)
+    return calls
+
+
+def test_preemption_is_switched_by_its_parameter(
+    cblm: CBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls = _count_calls(monkeypatch, "_uncovered")
+    start = {"angle": 8.0, "distance": 0.3}
+    on = cblm.generate(kinematic_env, start=start, seed=0)
+    assert calls[0] > 0 and on.component[0] == "turn"
+    calls[0] = 0
+    # a runtime parameter: read when the controller is made, the fitted tables stay
+    monkeypatch.setattr(cblm, "preempt_uncovered", False)
+    cblm.generate(kinematic_env, start=start, seed=0)
+    assert calls[0] == 0
+
+
+def test_thesis_cblm_switches_at_once_and_never_repairs(
+    cblm: CBLM, complex_data: Dataset, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    thesis = CBLM.from_preset("thesis", components=cblm.components_).fit(complex_data)
+    assert thesis.observation_vigilance == 0.95 and thesis.hmm_.counting == "changes"
+    repairs = _count_calls(monkeypatch, "_repair")
+    uncovered = _count_calls(monkeypatch, "_uncovered")
+    for angle, distance in ((60.0, 0.7), (8.0, 0.3), (-120.0, 0.5)):
+        trace = thesis.generate(kinematic_env, start={"angle": angle, "distance": distance})
+        assert trace.component[0] in ("turn", "approach")
+    assert repairs[0] == 0 and uncovered[0] == 0
+
+
+def test_cli_trains_the_thesis_cblm(
+    components: dict[str, Any], complex_data: Dataset, tmp_path: Path
+) -> None:
+    from typer.testing import CliRunner
+
+    from behavior_hmm import data
+    from behavior_hmm.cli import app
+
+    data.write(complex_data, tmp_path / "ta.parquet")
+    folder = components["dir"]
+    runner = CliRunner()
+    res = runner.invoke(
+        app,
+        ["train", "complex", str(tmp_path / "ta.parquet"), "--component", str(folder / "turn.bhmm"),
+         "--component", str(folder / "approach.bhmm"), "--preset", "thesis",
+         "--set", "switch_cycles=3", "-o", str(tmp_path / "ta.bhmm")],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "preset thesis + switch_cycles=3" in res.output
+    model = CBLM.load(tmp_path / "ta.bhmm")
+    assert (model.repair, model.preempt_uncovered, model.start_alternatives) == (False, False, 0)
+    assert model.switch_cycles == 3 and model.hmm_.counting == "changes"
+    res = runner.invoke(app, ["inspect", str(tmp_path / "ta.bhmm")])
+    assert res.exit_code == 0, res.output
+    assert "preset: thesis + switch_cycles=3" in res.output
+    assert "components: turn, approach" in res.output

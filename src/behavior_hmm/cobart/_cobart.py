@@ -317,9 +317,18 @@ class CobART(ParamsMixin):
             raise ConfigError(f"counts must be {k} integers >= 1")
         scale = check_dcm_scale(np.asarray(dcm_scale, dtype=np.float64).tolist(), n_ch)
         assert scale is not None
+        # The similarities divide by the squared scales and square the prototypes: refuse
+        # values whose squares leave the float range (e.g. from an edited model file).
+        with np.errstate(over="ignore", divide="ignore"):
+            inverse = 1.0 / np.square(np.append(scale, params.edm_scale))
+        if not (np.all(np.isfinite(inverse)) and np.all(inverse > 0.0)):
+            raise ConfigError("dcm_scale and edm_scale must have squares within the float range")
         layout = make_layout([params.window], [n_ch], [1.0], params.b, params.edm_scale, [scale])
         eng = Engine(layout, capacity=max(32, k))
-        eng.load(features(layout, protos.reshape(k, -1)), cnt.tolist())
+        with np.errstate(over="ignore", invalid="ignore"):
+            eng.load(features(layout, protos.reshape(k, -1)), cnt.tolist())
+        if not np.all(np.isfinite(eng.zaug[:k])):
+            raise ConfigError("prototypes are too large: their squared norms overflow")
         for name in ("labels_", "kept_"):
             self.__dict__.pop(name, None)
         self._engine = eng

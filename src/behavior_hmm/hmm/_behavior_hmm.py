@@ -521,6 +521,9 @@ class BehaviorHMM:
         except ConfigError as err:
             raise ModelFileError(f"invalid Behavior-HMM parameters in model file: {err}") from err
         probs, counts = _checked_arrays(arrays)
+        for key, c in counts.items():
+            if c.size and c.min() < 0:  # unsigned counts beyond 2**63 wrapped around
+                raise ModelFileError(f"counts of '{key}' do not fit in 64-bit integers")
         n, m = probs["B"].shape
         for name, size in (("n_states", n), ("n_observations", m)):
             declared = getattr(model, name)
@@ -530,7 +533,9 @@ class BehaviorHMM:
                 )
         for key, p in probs.items():
             expected = model._normalize(key, counts[key])
-            if not np.allclose(p, expected, rtol=0.0, atol=_MATCH_TOL):
+            # |p - expected| <= tol everywhere (np.allclose, without its full-size temporaries)
+            np.subtract(expected, p, out=expected)
+            if not np.abs(expected, out=expected).max(initial=0.0) <= _MATCH_TOL:
                 raise ModelFileError(
                     f"array '{key}' does not match the normalized '{_TABLES[key][0]}'"
                 )
@@ -622,6 +627,6 @@ def _checked_arrays(
             raise ModelFileError(f"array '{key}' has rows that sum to neither 1 nor 0")
         if c.min() < 0:
             raise ModelFileError(f"array '{ckey}' has negative counts")
-        probs[key] = p.astype(np.float64)
-        counts[ckey] = c.astype(np.int64)
+        probs[key] = np.asarray(p, dtype=np.float64)  # no copy: _set_tables copies
+        counts[ckey] = np.asarray(c, dtype=np.int64)
     return probs, {key: counts[ckey] for key, (ckey, _) in _TABLES.items()}

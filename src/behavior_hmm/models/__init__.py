@@ -1,6 +1,29 @@
-"""Learned behaviors: SBLM (simple) and CBLM (complex), fit / generate / save / load."""
+"""Learned behaviors: SBLM (simple) and CBLM (complex), fit / generate / save / load.
+
+Both are selectable in two presets (DESIGN §10): ``SBLM.from_preset("thesis", ...)`` is the
+method as published; the constructor defaults are the ``default`` preset. Every departure
+is listed in :data:`DEPARTURES`.
+"""
 
 from behavior_hmm.models._cblm import CBLM
+from behavior_hmm.models._config import read_config, resolve_params
+from behavior_hmm.models._presets import (
+    DEPARTURES,
+    PRESETS,
+    Departure,
+    describe_params,
+    preset_params,
+)
 from behavior_hmm.models._sblm import SBLM
 
-__all__ = ["CBLM", "SBLM"]
+__all__ = [
+    "CBLM",
+    "DEPARTURES",
+    "PRESETS",
+    "SBLM",
+    "Departure",
+    "describe_params",
+    "preset_params",
+    "read_config",
+    "resolve_params",
+]

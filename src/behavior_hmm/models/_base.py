@@ -45,27 +45,81 @@ class LearnedBehavior:
     kind = "model"
 
     @classmethod
+    def from_preset(cls, preset: str = "default", /, **params: Any) -> Any:
+        """A new unfitted model with ``preset``'s parameters, ``params`` applied on top.
+
+        ``SBLM.from_preset("thesis", inputs=("angle",))`` is the thesis's SBLM;
+        see :func:`behavior_hmm.models.preset_params` and docs/algorithms.md.
+        """
+        from behavior_hmm.models._presets import preset_params
+
+        return cls(**{**preset_params(preset, cls.kind), **params})
+
+    # parameters both kinds share (set by the subclasses' constructors)
+    counting: str
+    smoothing: float
+    path_self_loops: str
+
+    def check_params(self) -> None:
+        """Refuse parameters out of range (ConfigError) before any data is read."""
+        if self.counting not in ("changes", "steps"):
+            raise ConfigError(f"counting must be 'changes' or 'steps', got {self.counting!r}")
+        if self.path_self_loops not in ("drop", "keep"):
+            raise ConfigError(
+                f"path_self_loops must be 'drop' or 'keep', got {self.path_self_loops!r}"
+            )
+        smoothing = self.smoothing
+        if isinstance(smoothing, bool) or not isinstance(smoothing, int | float) or smoothing < 0:
+            raise ConfigError(f"smoothing must be a number >= 0, got {smoothing!r}")
+
+    @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Any:
         """Read a model written by ``save``; everything is validated (components included).
+
+        The file may come from a stranger: see :mod:`behavior_hmm.models._modelfile` for
+        the bounds on sizes, nesting and values that every load enforces.
 
         Raises
         ------
         ModelFileError
-            Missing, corrupted, tampered, of another kind or version, or inconsistent.
+            Missing, corrupted, tampered, of another kind or version, inconsistent, or
+            beyond a bound; the one-line message starts with ``path``.
         """
-        header, arrays = _modelfile.load(path)
-        if header["kind"] != cls.kind:
-            raise ModelFileError(f"{path}: holds a {header['kind']}, not a {cls.kind}")
+        return cls._load(path, str(path), _modelfile.Budget())
+
+    @classmethod
+    def _load(
+        cls, source: str | os.PathLike[str] | bytes, where: str, budget: _modelfile.Budget
+    ) -> Any:
+        """:meth:`load` of a file, or of a file's bytes (a CBLM's component) named ``where``."""
+        if isinstance(source, bytes):
+            header, arrays = _modelfile.loads(source, where, budget)
+        else:
+            header, arrays = _modelfile.load(source, budget)
         try:
-            return cls._from_state(header["params"], header["state"], arrays)
+            if header["kind"] != cls.kind:
+                raise ModelFileError(f"holds a {header['kind']}, not a {cls.kind}")
+            return cls._from_state(header["params"], header["state"], arrays, budget)
         except ModelFileError as err:
-            raise ModelFileError(f"{path}: {err}") from None
-        except (ConfigError, KeyError, TypeError, ValueError, IndexError) as err:
-            raise ModelFileError(f"{path}: invalid model contents ({err})") from None
+            raise _modelfile.refused(where, str(err)) from None
+        except (
+            ArithmeticError,
+            AttributeError,
+            LookupError,
+            RecursionError,
+            TypeError,
+            ValueError,
+        ) as err:  # a value of the wrong type or range deep inside a part
+            reason = f"invalid model contents ({type(err).__name__}: {err})"
+            raise _modelfile.refused(where, reason) from None
 
     @classmethod
     def _from_state(
-        cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, Any]
+        cls,
+        params: Mapping[str, Any],
+        state: Mapping[str, Any],
+        arrays: Mapping[str, Any],
+        budget: _modelfile.Budget | None = None,
     ) -> Any:
         raise NotImplementedError
 

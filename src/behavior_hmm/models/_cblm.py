@@ -36,9 +36,6 @@ from behavior_hmm.models._sblm import (
 
 FloatArray = NDArray[np.float64]
 
-#: Vigilance of a CBLM's observation categories (see ``observation_params``).
-DEFAULT_OBSERVATION_RHO = 0.99
-
 #: Channels a goal can be stated on, in order of preference.
 GOAL_CHANNELS = ("angle", "distance")
 
@@ -58,16 +55,32 @@ class CBLM(LearnedBehavior):
     inputs
         Sensor channels of the complex model's own observation categories.
     observation_params
-        Overrides of CobART's observation preset (thesis table 4.2). The CBLM's default
-        vigilance is 0.99, not 0.95: its observations span two channels, and at 0.95 a
-        still window 9 deg off the object falls in the same category as an aligned one,
-        so "turn first" and "approach only" could not be told apart near the 3 deg
-        tolerance (turn & approach on MuJoCo, 15 test starts: 0.98 gives 83.9 %, 0.99
-        86.4 %; the start 9 deg / 0.15 m goes from 43 % to 59 %).
+        Overrides of CobART's observation preset (thesis table 4.2); a ``rho`` here
+        overrides ``observation_vigilance``.
+    observation_vigilance
+        Vigilance ρ of the CBLM's observation categories: 0.99 (thesis: 0.95). Its
+        observations span two channels, and at 0.95 a still window 9 deg off the
+        object falls in the same category as an aligned one, so "turn first" and
+        "approach only" could not be told apart near the 3 deg tolerance (turn &
+        approach on MuJoCo, 15 test starts: 0.98 gives 83.9 %, 0.99 86.4 %).
     cutoff_hz
         Low-pass cut-off (Hz) of the inputs, as for the SBLM.
     counting, smoothing, path_self_loops
-        Behavior-HMM estimation options.
+        Behavior-HMM estimation options (thesis: ``counting="changes"``).
+    repair
+        When the plan has nothing left to run but a goal channel misses its
+        tolerance, run a component whose learned effect closes that gap (thesis:
+        ``False``, the run then waits at its step limit).
+    preempt_uncovered
+        At a decision point, a goal channel that no planned component can close (by the
+        components' learned effects) is closed first by the component that closes it
+        best (thesis: ``False``).
+    switch_cycles
+        Control cycles the plan must ask for another component before a running one is
+        replaced (8 = 128 ms; thesis: 1, switch at once).
+    start_alternatives
+        Runner-up categories of the start window tried when the best match has no
+        path to the goal (thesis: 0, the goal is unreachable).
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -89,22 +102,47 @@ class CBLM(LearnedBehavior):
         inputs: Sequence[str] = ("distance", "angle"),
         *,
         observation_params: Mapping[str, Any] | None = None,
+        observation_vigilance: float = 0.99,
         cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
         counting: str = "steps",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
+        repair: bool = True,
+        preempt_uncovered: bool = True,
+        switch_cycles: int = 8,
+        start_alternatives: int = 5,
         random_state: int = 0,
     ) -> None:
         self.components = components
         self.inputs = inputs
         self.observation_params = observation_params
+        self.observation_vigilance = observation_vigilance
         self.cutoff_hz = cutoff_hz
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
+        self.repair = repair
+        self.preempt_uncovered = preempt_uncovered
+        self.switch_cycles = switch_cycles
+        self.start_alternatives = start_alternatives
         self.random_state = random_state
 
+    def check_params(self) -> None:
+        """Refuse parameters out of range (ConfigError) before any data is read."""
+        super().check_params()
+        rho = self.observation_vigilance
+        if isinstance(rho, bool) or not isinstance(rho, int | float) or not 0 <= rho <= 1:
+            raise ConfigError(f"observation_vigilance must lie in [0, 1], got {rho!r}")
+        for name in ("repair", "preempt_uncovered"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        for name, low in (("switch_cycles", 1), ("start_alternatives", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 1000:
+                raise ConfigError(f"{name} must be an integer in [{low}, 1000], got {value!r}")
+
     def _checked(self) -> tuple[tuple[str, ...], list[Any], list[str]]:
+        self.check_params()
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
         for name in inputs:
             if name not in SENSOR_CHANNELS:
@@ -155,7 +193,10 @@ class CBLM(LearnedBehavior):
         pipeline = SignalPipeline(inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
-        overrides = {"rho": DEFAULT_OBSERVATION_RHO, **dict(self.observation_params or {})}
+        overrides = {
+            "rho": float(self.observation_vigilance),
+            **dict(self.observation_params or {}),
+        }
         obs = CobART.observations(**overrides).fit(x, lengths)
         obs = obs.compacted(x, lengths)
         hmm = BehaviorHMM(
@@ -289,23 +330,52 @@ class CBLM(LearnedBehavior):
 
     @classmethod
     def _from_state(
-        cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
+        cls,
+        params: Mapping[str, Any],
+        state: Mapping[str, Any],
+        arrays: Mapping[str, np.ndarray],
+        budget: _modelfile.Budget | None = None,
     ) -> CBLM:
-        kinds = list(state["kinds"])
+        budget = _modelfile.Budget() if budget is None else budget
+        kinds = state["kinds"]
+        if not isinstance(kinds, list) or not 1 <= len(kinds) <= _modelfile.MAX_COMPONENTS:
+            raise ModelFileError(
+                f"kinds must list 1 to {_modelfile.MAX_COMPONENTS} component kinds"
+            )
+        own = {"obs.prototypes", "obs.counts", "obs.dcm_scale", "effects"}
+        own |= {f"component.{i}" for i in range(len(kinds))}
+        extra = sorted(k for k in arrays if k not in own and not k.startswith("hmm."))
+        if extra:
+            raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
         components = []
         for i, kind in enumerate(kinds):
             raw = _modelfile.check_array(arrays, f"component.{i}", ndim=1, kind="u")
-            loader = {"SBLM": SBLM, "CBLM": CBLM}.get(kind)
+            if raw.dtype != np.uint8:
+                raise ModelFileError(f"array 'component.{i}' must hold bytes (uint8)")
+            loaders: dict[str, type[LearnedBehavior]] = {"SBLM": SBLM, "CBLM": CBLM}
+            loader = loaders.get(kind) if isinstance(kind, str) else None
             if loader is None:
                 raise ModelFileError(f"component {i} has unknown kind {kind!r}")
-            components.append(_load_bytes(loader, raw.tobytes()))
+            with budget.component():  # refused past MAX_NESTING levels
+                components.append(loader._load(raw.tobytes(), f"component {i}", budget))
         model = cls(components=components, **params)
         inputs, _, names = model._checked()
         if list(names) != list(state["names"]) or list(inputs) != list(state["inputs"]):
             raise ModelFileError("component names or inputs do not match the model's state")
-        pipeline = SignalPipeline.from_dict(state["pipeline"])
+        pipeline = SignalPipeline.from_dict(_modelfile.check_mapping(state["pipeline"], "pipeline"))
+        if pipeline.channels != inputs:
+            raise ModelFileError("pipeline channels do not match the inputs")
+        _modelfile.check_pipeline(pipeline)
+        window = _modelfile.check_mapping(state["observations"], "observations").get("window")
+        _modelfile.check_int(window, "observations window", 1, _modelfile.MAX_WINDOW)
+        # The HMM first: its tables bound the number of categories CobART restores.
+        hmm = BehaviorHMM.from_arrays(
+            _prefixed(arrays, "hmm"), _modelfile.check_mapping(state["hmm"], "hmm")
+        )
+        protos = _modelfile.check_array(arrays, "obs.prototypes", kind="biuf", finite=False)
+        if protos.ndim < 1 or protos.shape[0] != hmm.n_observations_:
+            raise ModelFileError("observation prototypes and HMM sizes disagree")
         obs = _cobart_from(state["observations"], arrays, "obs", len(inputs))
-        hmm = BehaviorHMM.from_arrays(_prefixed(arrays, "hmm"), state["hmm"])
         if hmm.n_states_ != len(components) or hmm.n_observations_ != obs.n_categories_:
             raise ModelFileError("HMM sizes do not match the components and categories")
         model.inputs_ = inputs
@@ -318,15 +388,23 @@ class CBLM(LearnedBehavior):
         if effects.shape != (len(components), len(inputs)):
             raise ModelFileError("effects must have one row per component, one column per input")
         model.effects_ = effects
-        model.command_scale_ = float(state["command_scale"])
-        model.rest_values_ = {c: float(state["rest_values"][c]) for c in inputs}
-        model.default_goal_ = check_goal(state["default_goal"], inputs)
-        model.max_steps_ = int(state["max_steps"])
-        model.behavior_ = str(state["behavior"])
-        train_data = state.get("train_data")
-        if train_data is not None and not isinstance(train_data, str):
-            raise ModelFileError("train_data must be a path string or null")
-        model.train_data_ = train_data
+        model.command_scale_ = _modelfile.check_number(
+            state["command_scale"], "command_scale", positive=True
+        )
+        model.rest_values_ = _modelfile.check_channel_values(
+            state["rest_values"], "rest_values", inputs
+        )
+        goal = _modelfile.check_channel_values(
+            state["default_goal"], "default_goal", inputs, all_channels=False
+        )
+        model.default_goal_ = check_goal(goal, inputs)
+        model.max_steps_ = _modelfile.check_int(
+            state["max_steps"], "max_steps", 1, _modelfile.MAX_STEPS
+        )
+        model.behavior_ = str(_modelfile.check_text(state["behavior"], "behavior"))
+        model.train_data_ = _modelfile.check_text(
+            state.get("train_data"), "train_data", optional=True
+        )
         return model
 
 
@@ -336,13 +414,6 @@ def _model_bytes(model: Any) -> bytes:
         path = Path(tmp) / "component.bhmm"
         model.save(path)
         return path.read_bytes()
-
-
-def _load_bytes(loader: Any, data: bytes) -> Any:
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "component.bhmm"
-        path.write_bytes(data)
-        return loader.load(path)
 
 
 def _effects(

@@ -247,6 +247,17 @@ class SBLM(LearnedBehavior):
         self.random_state = random_state
 
     # ------------------------------------------------------------------ params
+    def check_params(self) -> None:
+        """Refuse parameters out of range (ConfigError) before any data is read."""
+        super().check_params()
+        self._checked_inputs()
+        for name in ("primitive_recognition", "stop_at_rest"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        size = self.batch_size
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+            raise ConfigError(f"batch_size must be an integer >= 1, got {size!r}")
+
     def _checked_inputs(self) -> tuple[str, ...]:
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
         if not inputs:
@@ -298,6 +309,7 @@ class SBLM(LearnedBehavior):
         SBLM
             ``self``.
         """
+        self.check_params()
         inputs = self._checked_inputs()
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
@@ -503,46 +515,79 @@ class SBLM(LearnedBehavior):
 
     @classmethod
     def _from_state(
-        cls, params: Mapping[str, Any], state: Mapping[str, Any], arrays: Mapping[str, np.ndarray]
+        cls,
+        params: Mapping[str, Any],
+        state: Mapping[str, Any],
+        arrays: Mapping[str, np.ndarray],
+        budget: _modelfile.Budget | None = None,
     ) -> SBLM:
         model = cls(**params)
+        model.check_params()
         inputs = model._checked_inputs()
         if list(inputs) != list(state["inputs"]):
             raise ModelFileError("inputs in params and state disagree")
-        pipeline = SignalPipeline.from_dict(state["pipeline"])
+        pipeline = SignalPipeline.from_dict(_modelfile.check_mapping(state["pipeline"], "pipeline"))
         if pipeline.channels != inputs:
             raise ModelFileError("pipeline channels do not match the inputs")
+        _modelfile.check_pipeline(pipeline)
+        names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
+        extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
+        if extra:
+            raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
+        for key in ("primitives", "observations", "generators"):
+            window = _modelfile.check_mapping(state[key], key).get("window")
+            _modelfile.check_int(window, f"{key} window", 1, _modelfile.MAX_WINDOW)
+        # The HMM first: its tables bound the numbers of primitives and categories
+        # that the networks below restore one by one.
+        hmm = BehaviorHMM.from_arrays(
+            _prefixed(arrays, "hmm"), _modelfile.check_mapping(state["hmm"], "hmm")
+        )
+        rows = {
+            "prim.prototypes": hmm.n_states_,
+            "obs.prototypes": hmm.n_observations_,
+            "gen.coef_0": hmm.n_states_,
+        }
+        for name, n in rows.items():
+            arr = _modelfile.check_array(arrays, name, kind="biuf", finite=False)
+            if arr.ndim < 1 or arr.shape[0] != n:
+                raise ModelFileError(f"array '{name}' does not have the HMM's {n} rows")
         prim = _cobart_from(state["primitives"], arrays, "prim", len(inputs))
         obs = _cobart_from(state["observations"], arrays, "obs", len(inputs))
-        hmm = BehaviorHMM.from_arrays(_prefixed(arrays, "hmm"), state["hmm"])
         gens = MotionGenerators.from_arrays(_prefixed(arrays, "gen"), **state["generators"])
         if hmm.n_states_ != prim.n_categories_ or hmm.n_observations_ != obs.n_categories_:
             raise ModelFileError("HMM sizes do not match the CobART categories")
         if gens.n_primitives_ != prim.n_categories_:
             raise ModelFileError("generator count does not match the primitives")
+        if gens.window != prim.window:
+            raise ModelFileError("generator window differs from the primitives' window")
         if gens.n_features_in_ != model._n_features(len(inputs), int(prim.window)):
             raise ModelFileError("generator inputs do not match the model's parameters")
-        scale = float(state["command_scale"])
-        if not np.isfinite(scale) or scale <= 0:
-            raise ModelFileError("command_scale must be a positive number")
         model.inputs_ = inputs
         model.pipeline_ = pipeline
         model.primitives_ = prim
         model.observations_ = obs
         model.hmm_ = hmm
         model.generators_ = gens
-        model.command_scale_ = scale
-        model.delta_scale_ = float(state["delta_scale"])
-        if not np.isfinite(model.delta_scale_) or model.delta_scale_ <= 0:
-            raise ModelFileError("delta_scale must be a positive number")
-        model.rest_values_ = {c: float(state["rest_values"][c]) for c in inputs}
-        model.default_goal_ = check_goal(state["default_goal"], inputs)
-        model.max_steps_ = int(state["max_steps"])
-        model.behavior_ = str(state["behavior"])
-        train_data = state.get("train_data")
-        if train_data is not None and not isinstance(train_data, str):
-            raise ModelFileError("train_data must be a path string or null")
-        model.train_data_ = train_data
+        model.command_scale_ = _modelfile.check_number(
+            state["command_scale"], "command_scale", positive=True
+        )
+        model.delta_scale_ = _modelfile.check_number(
+            state["delta_scale"], "delta_scale", positive=True
+        )
+        model.rest_values_ = _modelfile.check_channel_values(
+            state["rest_values"], "rest_values", inputs
+        )
+        goal = _modelfile.check_channel_values(
+            state["default_goal"], "default_goal", inputs, all_channels=False
+        )
+        model.default_goal_ = check_goal(goal, inputs)
+        model.max_steps_ = _modelfile.check_int(
+            state["max_steps"], "max_steps", 1, _modelfile.MAX_STEPS
+        )
+        model.behavior_ = str(_modelfile.check_text(state["behavior"], "behavior"))
+        model.train_data_ = _modelfile.check_text(
+            state.get("train_data"), "train_data", optional=True
+        )
         return model
 
 

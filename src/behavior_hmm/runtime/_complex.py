@@ -22,10 +22,6 @@ FloatArray = NDArray[np.float64]
 
 _ZERO = np.zeros(2)
 
-#: Control cycles the plan must ask for another component before a running one is replaced
-#: (8 cycles = 128 ms).
-SWITCH_CYCLES = 8
-
 
 class ComplexController(GoalTracking):
     """Runs a CBLM: plans over its own observation categories, delegates to components.
@@ -70,6 +66,11 @@ class ComplexController(GoalTracking):
         norm = model.pipeline_.normalizer
         self._lo = np.asarray(norm._lo, dtype=np.float64)
         self._gain = np.asarray(norm._gain, dtype=np.float64)
+        # the CBLM's runtime additions (each off in the thesis preset)
+        self._may_repair = bool(model.repair)
+        self._may_preempt = bool(model.preempt_uncovered)
+        self._switch_cycles = int(model.switch_cycles)
+        self._alternatives = int(model.start_alternatives)
         self.reset()
 
     def reset(self) -> None:
@@ -90,7 +91,8 @@ class ComplexController(GoalTracking):
 
         A window between two demonstrated starts can match best a category from which
         no demonstration led to the goal; the runner-up categories of the same window
-        (at most 5) are tried before giving up (UnreachableGoalError before any motion).
+        (at most the model's ``start_alternatives``) are tried before giving up
+        (UnreachableGoalError before any motion).
         """
         hmm = self.model.hmm_
         try:
@@ -99,7 +101,7 @@ class ComplexController(GoalTracking):
         except UnreachableGoalError:
             if self._child is not None:
                 return category  # carry on with the running component
-            ranked = np.argsort(self._live.mismatch, kind="stable")[:6]
+            ranked = np.argsort(self._live.mismatch, kind="stable")[: self._alternatives + 1]
             for alternative in (int(k) for k in ranked if k != category):
                 try:
                     retarget(self, hmm, alternative, may_raise=True, most_likely=True)
@@ -146,6 +148,8 @@ class ComplexController(GoalTracking):
             if self._child is None or self._active in self._finished:
                 if at_goal:  # nothing left to run and the goal holds
                     return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
+                if not self._may_repair:  # thesis: stand still until the step limit
+                    return StepOutput(_ZERO, category, novel, self._active, self.name, False, False)
                 # The plan is exhausted short of the goal (e.g. an approach drifted off
                 # the bearing): run the component whose own goal covers the channel that
                 # misses its tolerance, toward the complex goal on its channels.
@@ -156,7 +160,7 @@ class ComplexController(GoalTracking):
         if running and self._committed:
             # a component run to close a gap the plan missed finishes its job first
             return self._run_child(reading, category, novel, changed=False)
-        if not running:
+        if not running and self._may_preempt:
             fix = self._uncovered(values, [s.state for s in segments])
             if fix is not None:
                 sub_goal = {
@@ -171,7 +175,7 @@ class ComplexController(GoalTracking):
             # running component is replaced only when the plan insists for a while.
             self._insist = self._insist + 1 if self._wanted == segment.state else 1
             self._wanted = segment.state
-            if self._insist < SWITCH_CYCLES:
+            if self._insist < self._switch_cycles:
                 return self._run_child(reading, category, novel, changed=False)
         self._insist, self._wanted = 0, -1
         self._committed = False

@@ -1,0 +1,244 @@
+"""The two presets: the thesis as published, and ours (DESIGN §10).
+
+Every departure of the ``default`` preset from the thesis is declared once, here, as a
+:class:`Departure`: its name (the row label of ``experiment ablation``), the constructor
+parameters it sets and their thesis values. The ``default`` value of each parameter is
+the constructor default of its class (read from the signature, never repeated), so:
+
+- ``preset_params("default", "SBLM")`` are the SBLM's constructor defaults;
+- ``preset_params("thesis", "SBLM")`` are the same with every departure at its thesis value;
+- ``experiment ablation`` switches departures on and off one at a time.
+
+Where the thesis is silent, its value here is the plainest reading (docs/algorithms.md,
+"The two presets", lists each such reading).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any, Final
+
+from behavior_hmm.errors import ConfigError
+
+#: Preset names, thesis first.
+PRESETS: Final[tuple[str, ...]] = ("thesis", "default")
+
+#: Model kinds a preset configures.
+KINDS: Final[tuple[str, ...]] = ("SBLM", "CBLM")
+
+#: Constructor parameters a preset or a config file never sets (they have their own options).
+NOT_PRESET: Final[frozenset[str]] = frozenset({"inputs", "components", "random_state"})
+
+
+@dataclass(frozen=True)
+class Departure:
+    """One named departure of the default preset from the thesis.
+
+    Parameters
+    ----------
+    name
+        Row label in the ablation table.
+    thesis
+        ``{kind: {parameter: thesis value}}``; the default value is the constructor's.
+    summary
+        What the default does differently, in a few words.
+    """
+
+    name: str
+    thesis: Mapping[str, Mapping[str, Any]]
+    summary: str
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """Model kinds this departure touches."""
+        return tuple(self.thesis)
+
+    def value(self, preset: str, kind: str, param: str) -> Any:
+        """The parameter's value in ``preset`` (``"thesis"`` or ``"default"``)."""
+        if preset == "thesis":
+            return self.thesis[kind][param]
+        return constructor_defaults(kind)[param]
+
+
+#: Every departure of ``default`` from the thesis, SBLM first (order of the ablation rows).
+DEPARTURES: Final[tuple[Departure, ...]] = (
+    Departure(
+        "onset_clock",
+        {"SBLM": {"onset_clock": 0}},
+        "generators also read the time since the start, min(t, 64)/64",
+    ),
+    Departure(
+        "primitive_recognition",
+        {"SBLM": {"primitive_recognition": False}},
+        "run the primitive CobART recognizes live, among those the plan allows",
+    ),
+    Departure(
+        "state_decoding",
+        {"SBLM": {"state_decoding": "plan"}},
+        "decode with the forward message of the run so far, not the prior π",
+    ),
+    Departure(
+        "window_noise",
+        {"SBLM": {"window_noise": 0.0}},
+        "window-shift training: a copy of the rows with a Gaussian offset per channel",
+    ),
+    Departure(
+        "segment_margin",
+        {"SBLM": {"segment_margin": 0}},
+        "each generator also trains on 10 rows either side of its segments",
+    ),
+    Departure(
+        "dcm_floor",
+        {"SBLM": {"dcm_floor": 0.0}},
+        "automatic DCM scale at least 0.3 × the largest channel's",
+    ),
+    Departure(
+        "stop_at_rest",
+        {"SBLM": {"stop_at_rest": False}},
+        "the stop rule also waits until the robot is at rest",
+    ),
+    Departure(
+        "batch_size",
+        {"SBLM": {"batch_size": 1}},
+        "minibatches of 32 (thesis: incremental, one update per sample)",
+    ),
+    Departure(
+        "hidden",
+        {"SBLM": {"hidden": None}},
+        "5 hidden units for any input set (thesis: 5/10/15 for 1/2/3 channels)",
+    ),
+    Departure(
+        "path_self_loops",
+        {"SBLM": {"path_self_loops": "keep"}, "CBLM": {"path_self_loops": "keep"}},
+        "plan on c_ij / (1 − c_ii), the next different category (thesis: −log c_ij)",
+    ),
+    Departure(
+        "observation_vigilance",
+        {"CBLM": {"observation_vigilance": 0.95}},
+        "CBLM observation categories at ρ 0.99 (thesis: 0.95)",
+    ),
+    Departure(
+        "counting",
+        {"CBLM": {"counting": "changes"}},
+        'CBLM counts every control cycle ("steps"; thesis: state changes)',
+    ),
+    Departure(
+        "repair",
+        {"CBLM": {"repair": False}},
+        "when the plan is exhausted short of the goal, run a component that closes the gap",
+    ),
+    Departure(
+        "preempt_uncovered",
+        {"CBLM": {"preempt_uncovered": False}},
+        "a gap no planned component can close is closed first",
+    ),
+    Departure(
+        "switch_cycles",
+        {"CBLM": {"switch_cycles": 1}},
+        "a running component is replaced only after the plan insists for 8 cycles",
+    ),
+    Departure(
+        "start_alternatives",
+        {"CBLM": {"start_alternatives": 0}},
+        "an unplannable start category tries up to 5 runner-up categories",
+    ),
+)
+
+
+def _model_class(kind: str) -> Any:
+    if kind == "SBLM":
+        from behavior_hmm.models._sblm import SBLM
+
+        return SBLM
+    if kind == "CBLM":
+        from behavior_hmm.models._cblm import CBLM
+
+        return CBLM
+    raise ConfigError(f"unknown model kind {kind!r}; choose from {', '.join(KINDS)}")
+
+
+def constructor_defaults(kind: str) -> dict[str, Any]:
+    """The constructor defaults of ``kind`` (the ``default`` preset), bar inputs and seed."""
+    signature = inspect.signature(_model_class(kind).__init__)
+    return {
+        name: p.default
+        for name, p in signature.parameters.items()
+        if name != "self" and name not in NOT_PRESET
+    }
+
+
+def check_preset(preset: str) -> str:
+    """``preset`` if it names a preset, else a :class:`ConfigError` listing them."""
+    if preset not in PRESETS:
+        raise ConfigError(f"unknown preset {preset!r}; choose from {', '.join(PRESETS)}")
+    return preset
+
+
+def departure(name: str) -> Departure:
+    """The departure called ``name`` (a did-you-mean error otherwise)."""
+    for item in DEPARTURES:
+        if item.name == name:
+            return item
+    from behavior_hmm.models._config import did_you_mean
+
+    raise ConfigError(
+        f"unknown departure {name!r}{did_you_mean(name, [d.name for d in DEPARTURES])}"
+    )
+
+
+def preset_params(
+    preset: str, kind: str, *, switch: Iterable[str] = (), to: str | None = None
+) -> dict[str, Any]:
+    """Constructor parameters of ``kind`` in ``preset``.
+
+    Parameters
+    ----------
+    preset
+        ``"thesis"`` or ``"default"``.
+    kind
+        ``"SBLM"`` or ``"CBLM"``.
+    switch
+        Names of departures to set to the other preset's value (``to``): the thesis
+        plus one addition is ``preset_params("thesis", k, switch=[name])``; the default
+        minus one is ``preset_params("default", k, switch=[name])``.
+    to
+        The preset the switched departures take (default: the other one).
+    """
+    check_preset(preset)
+    params = constructor_defaults(kind)
+    if preset == "thesis":
+        for item in DEPARTURES:
+            params.update(item.thesis.get(kind, {}))
+    other = to if to is not None else ("default" if preset == "thesis" else "thesis")
+    check_preset(other)
+    for name in switch:
+        item = departure(name)
+        for param in item.thesis.get(kind, {}):
+            params[param] = item.value(other, kind, param)
+    return params
+
+
+def describe_params(kind: str, params: Mapping[str, Any]) -> str:
+    """Name the preset ``params`` follow: ``"thesis"``, ``"default"``, or the closest one
+    with the parameters that differ (``"thesis + batch_size=32"``)."""
+    own = {k: _plain(v) for k, v in params.items() if k not in NOT_PRESET}
+    best: tuple[int, str, list[str]] | None = None
+    for preset in PRESETS:
+        reference = {k: _plain(v) for k, v in preset_params(preset, kind).items()}
+        differ = [f"{k}={own[k]!r}" for k in reference if k in own and own[k] != reference[k]]
+        if best is None or len(differ) < best[0]:
+            best = (len(differ), preset, differ)
+    assert best is not None
+    _, preset, differ = best
+    return preset if not differ else f"{preset} + {', '.join(differ)}"
+
+
+def _plain(value: Any) -> Any:
+    """Tuples as lists and mappings as dicts, as a model file stores them."""
+    if isinstance(value, tuple | list):
+        return [_plain(v) for v in value]
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
