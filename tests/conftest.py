@@ -7,12 +7,19 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 from behavior_hmm.data import Dataset
 from behavior_hmm.models import SBLM
 from behavior_hmm.teach import collect
 
 SEED = int(os.environ.get("BEHAVIOR_HMM_TEST_SEED", "12345"))
+
+# Hypothesis: in CI (env CI set) the same examples every run, so a red build replays;
+# elsewhere random examples, to find new failures. Select one with --hypothesis-profile.
+settings.register_profile("ci", derandomize=True, print_blob=True)
+settings.register_profile("dev")
+settings.load_profile("ci" if os.environ.get("CI") else "dev")
 
 
 def pytest_report_header(config: pytest.Config) -> str:

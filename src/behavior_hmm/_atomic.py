@@ -1,36 +1,166 @@
-"""Crash-safe file writes: temp file in the same folder, fsync, ``os.replace``."""
+"""Crash-safe file writes: temp file in the same folder, fsync, ``os.replace``.
+
+Inside :func:`all_or_none` the writes of a command are staged instead: each lands in its
+temporary file, and only when the block ends without an error are they all moved into
+place; on any error (or an interrupt) every temporary file is removed and the old files
+stay as they were.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
+import secrets
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
+
+#: Writes staged by the innermost :func:`all_or_none` block: (temporary file, target).
+_STAGED: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
+    "behavior_hmm_staged_writes", default=None
+)
 
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
-    On any exception the temporary file is removed and ``path`` is untouched.
+    On any exception the temporary file is removed and ``path`` is untouched; an
+    ``OSError`` names ``path``, never the temporary file. Inside :func:`all_or_none`
+    the rename waits for the end of that block.
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
     try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as err:
+        raise _renamed(err, None, target) from None
+    tmp = Path(tmp_name)
+    keep = False
+    try:
+        os.close(fd)
         yield tmp
         with open(tmp, "rb+") as fh:
             fh.flush()
             os.fsync(fh.fileno())
         # mkstemp creates 0600 files; give the result the mode a plain open() would.
         os.chmod(tmp, _target_mode(target))
-        os.replace(tmp, target)
+        staged = _STAGED.get()
+        if staged is None:
+            os.replace(tmp, target)
+        else:
+            _stage(staged, tmp, target)
+            keep = True
+    except OSError as err:
+        raise _renamed(err, tmp, target) from None
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        if not keep:
+            _remove(tmp)
+
+
+@contextlib.contextmanager
+def all_or_none() -> Iterator[None]:
+    """Write every output of the block, or none of them.
+
+    Atomic writes inside the block go to temporary files; at its end they replace their
+    targets together. If the block raises (an error, Ctrl-C, SIGTERM) the temporary files
+    are removed and no target changes; if moving one into place fails, those already
+    moved are put back. Nested blocks join the outermost one.
+    """
+    if _STAGED.get() is not None:
+        yield
+        return
+    staged: list[tuple[Path, Path]] = []
+    token = _STAGED.set(staged)
+    try:
+        try:
+            yield
+        finally:
+            _STAGED.reset(token)
+        _commit(staged)
+    finally:
+        for tmp, _ in staged:  # whatever was not moved into place
+            _remove(tmp)
+
+
+def _stage(staged: list[tuple[Path, Path]], tmp: Path, target: Path) -> None:
+    """Add ``tmp -> target``; a second write of the same target replaces the first."""
+    where = Path(os.path.abspath(target))
+    for k, (old_tmp, old_target) in enumerate(staged):
+        if Path(os.path.abspath(old_target)) == where:
+            _remove(old_tmp)
+            del staged[k]
+            break
+    staged.append((tmp, target))
+
+
+def _commit(staged: list[tuple[Path, Path]]) -> None:
+    """Move every staged file onto its target; on a failure undo the moves made."""
+    done: list[tuple[Path, Path | None, bool]] = []  # (target, backup, it existed)
+    try:
+        while staged:
+            tmp, target = staged[0]
+            existed = target.exists() or target.is_symlink()
+            backup = _backup(target) if existed else None
+            try:
+                os.replace(tmp, target)
+            except OSError as err:
+                if backup is not None:
+                    _remove(backup)
+                raise _renamed(err, tmp, target) from None
+            staged.pop(0)
+            done.append((target, backup, existed))
+    except BaseException:
+        for target, backup, existed in reversed(done):
+            try:
+                if backup is not None:
+                    os.replace(backup, target)
+                elif not existed:
+                    target.unlink()
+                # else: an old file we could not back up; the new one stays
+            except OSError:
+                pass
+        raise
+    for _, backup, _ in done:
+        if backup is not None:
+            _remove(backup)
+
+
+def _backup(target: Path) -> Path | None:
+    """A second name for ``target``'s current file (a hard link, or a copy of a symlink)
+    to put it back with; None where the file system allows neither."""
+    backup = target.with_name(f".{target.name}.{secrets.token_hex(4)}.bak")
+    try:
+        if target.is_symlink():
+            os.symlink(os.readlink(target), backup)
+        else:
+            os.link(target, backup)
+    except OSError:
+        return None
+    return backup
+
+
+def _remove(path: Path) -> None:
+    try:
+        path.unlink()
+    except OSError:  # already gone, or nothing more we can do
+        pass
+
+
+def _renamed(err: OSError, tmp: Path | None, target: Path) -> OSError:
+    """``err`` with the temporary file's name replaced by the target's."""
+    names = [str(err.filename or ""), str(err.filename2 or ""), str(err)]
+    mentions_tmp = tmp is not None and any(str(tmp) in name for name in names)
+    hidden = err.filename is not None and Path(str(err.filename)).name.startswith(
+        f".{target.name}."
+    )
+    if not (mentions_tmp or hidden):
+        return err
+    if err.strerror is not None:  # OSError(errno, ...) picks the matching subclass
+        return OSError(err.errno, err.strerror, str(target))
+    text = str(err).replace(str(tmp), str(target)) if tmp is not None else str(err)
+    return OSError(text)
 
 
 def _target_mode(target: Path) -> int:

@@ -13,6 +13,7 @@ Registered on the main app by :func:`register` (``behavior_hmm.cli``)::
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
@@ -26,27 +27,106 @@ experiment_app = typer.Typer(no_args_is_help=True, help="Reproduce the thesis's 
 
 SIMS = ("mujoco", "kinematic")
 
+#: The options that choose model parameters, shared by every command that trains.
+PresetOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Model parameters: 'thesis' (the method as published) or 'default' (ours); "
+        "default: the config file's 'preset', else default"
+    ),
+]
+ConfigOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--config",
+        help="TOML file of model parameters: top-level NAME = VALUE, or [sblm] / [cblm] tables",
+    ),
+]
+SetOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--set",
+        help="One model parameter over the preset and config, NAME=VALUE (repeatable), "
+        "e.g. --set batch_size=1 --set cblm.repair=false",
+    ),
+]
 
-def parse_assignments(text: str, option: str) -> dict[str, float]:
-    """Parse ``angle=120,distance=0.5`` into ``{"angle": 120.0, "distance": 0.5}``."""
+
+def model_params(
+    kinds: tuple[str, ...], preset: str | None, config: Path | None, sets: list[str] | None
+) -> tuple[str, dict[str, dict[str, Any]]]:
+    """Effective model parameters from ``--preset``, ``--config`` and ``--set`` (checked)."""
+    from behavior_hmm.models import CBLM, SBLM, read_config, resolve_params
+    from behavior_hmm.models._config import parse_sets
+
+    table = read_config(config) if config is not None else None
+    name, params = resolve_params(
+        kinds, preset, table, parse_sets(sets or []), config_name=str(config or "config")
+    )
+    for kind, values in params.items():  # ranges and choices, before any work
+        {"SBLM": SBLM, "CBLM": CBLM}[kind](**values).check_params()
+    return name, params
+
+
+#: The channels a ``--start`` may set.
+START_KEYS: tuple[str, ...] = ("angle", "distance")
+
+
+def parse_assignments(
+    text: str, option: str, allowed: tuple[str, ...] | None = None
+) -> dict[str, float]:
+    """Parse ``angle=120,distance=0.5`` into ``{"angle": 120.0, "distance": 0.5}``.
+
+    Every value must be a finite number, no key may repeat, and with ``allowed`` every
+    key must be one of those; anything else raises :class:`ConfigError`.
+    """
     out: dict[str, float] = {}
     for item in text.split(","):
         item = item.strip()
         if not item:
             continue
         key, sep, value = item.partition("=")
-        if not sep:
+        key = key.strip()
+        if not sep or not key:
             raise ConfigError(f"{option} expects CHANNEL=VALUE[,CHANNEL=VALUE], got '{text}'")
+        if allowed is not None and key not in allowed:
+            choices = ", ".join(allowed)
+            raise ConfigError(f"{option}: unknown channel '{key}'; choose from {choices}")
+        if key in out:
+            raise ConfigError(f"{option} gives '{key}' twice (in '{text}')")
         try:
             number = float(value)
         except ValueError:
             raise ConfigError(f"{option}: '{value}' is not a number (in '{item}')") from None
         if number != number or number in (float("inf"), float("-inf")):
             raise ConfigError(f"{option}: '{value}' is not a finite number")
-        out[key.strip()] = number
+        out[key] = number
     if not out:
         raise ConfigError(f"{option} is empty; e.g. {option} angle=0")
     return out
+
+
+def parse_start(text: str) -> dict[str, float]:
+    """A ``--start``: angle and/or distance, inside the arena (:class:`ConfigError` if not)."""
+    from behavior_hmm.teach import check_start
+
+    start = parse_assignments(text, "--start", START_KEYS)
+    check_start(start)
+    return start
+
+
+def check_seed(seed: int, option: str = "--seed") -> int:
+    """Refuse a negative seed before any work (numpy and gymnasium need seeds >= 0)."""
+    if seed < 0:
+        raise ConfigError(f"{option} must be an integer >= 0, got {seed}")
+    return seed
+
+
+def check_noise(noise: float, option: str = "--noise") -> float:
+    """Refuse a sensor-noise sigma that is negative or not finite."""
+    if not math.isfinite(noise) or noise < 0:
+        raise ConfigError(f"{option} must be a finite number >= 0, got {noise}")
+    return noise
 
 
 def load_model(path: Path) -> Any:
@@ -89,22 +169,36 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         inputs: Annotated[str, typer.Option(help="Input channels, e.g. angle,angular_velocity")],
         out: Annotated[Path, typer.Option("-o", "--out", help="Model file to write")],
         seed: Annotated[int, typer.Option(help="Seed of every random choice")] = 0,
+        preset: PresetOption = None,
+        config: ConfigOption = None,
+        set_: SetOption = None,
     ) -> None:
-        """Learn a simple behavior (SBLM) from demonstrations."""
+        """Learn a simple behavior (SBLM) from demonstrations.
+
+        Example: behavior-hmm train simple data/turn.parquet --inputs angle --preset thesis
+        -o models/turn-thesis.bhmm
+        """
         import time
 
         from behavior_hmm import data as bdata
-        from behavior_hmm.models import SBLM
+        from behavior_hmm._paths import check_outputs
+        from behavior_hmm.models import SBLM, describe_params
 
+        check_seed(seed)
+        check_outputs({"DATA": data, "--config": config}, {"-o": out})
+        _, params = model_params(("SBLM",), preset, config, set_)
+        model = SBLM(**params["SBLM"], inputs=_inputs(inputs), random_state=seed)
+        model.check_params()  # before any data is read
         dataset = bdata.read(data)
         t0 = time.perf_counter()
-        model = SBLM(inputs=_inputs(inputs), random_state=seed).fit(dataset)
+        model.fit(dataset)
         model.train_data_ = str(data)
         model.save(out)
         typer.echo(
             f"wrote {out}: {model.behavior_} on {','.join(model.inputs_)}, "
             f"{model.primitives_.n_categories_} primitives, "
-            f"{model.observations_.n_categories_} observation categories "
+            f"{model.observations_.n_categories_} observation categories, "
+            f"preset {describe_params('SBLM', model.get_params())} "
             f"({time.perf_counter() - t0:.1f} s)"
         )
 
@@ -117,23 +211,36 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         ],
         out: Annotated[Path, typer.Option("-o", "--out", help="Model file to write")],
         inputs: Annotated[str, typer.Option(help="Input channels")] = "distance,angle",
+        preset: PresetOption = None,
+        config: ConfigOption = None,
+        set_: SetOption = None,
     ) -> None:
-        """Compose learned behaviors (CBLM) from demonstrations tagged per row."""
+        """Compose learned behaviors (CBLM) from demonstrations tagged per row.
+
+        The preset, config and --set choose the CBLM's own parameters; the components
+        keep theirs. Example: behavior-hmm train complex data/ta.parquet --component
+        models/turn.bhmm --component models/approach.bhmm --preset thesis -o models/ta.bhmm
+        """
         import time
 
         from behavior_hmm import data as bdata
-        from behavior_hmm.models import CBLM
+        from behavior_hmm._paths import check_outputs
+        from behavior_hmm.models import CBLM, describe_params
 
+        check_outputs({"DATA": data, "--component": component, "--config": config}, {"-o": out})
+        _, params = model_params(("CBLM",), preset, config, set_)
+        CBLM(**params["CBLM"]).check_params()  # before any file is read
         components = [load_model(path) for path in component]
         dataset = bdata.read(data)
         t0 = time.perf_counter()
-        model = CBLM(components, inputs=_inputs(inputs)).fit(dataset)
+        model = CBLM(components, **params["CBLM"], inputs=_inputs(inputs)).fit(dataset)
         model.train_data_ = str(data)
         model.save(out)
         typer.echo(
             f"wrote {out}: {model.behavior_} over {', '.join(model.names_)} on "
             f"{','.join(model.inputs_)}, {model.observations_.n_categories_} observation "
-            f"categories ({time.perf_counter() - t0:.1f} s); components unchanged"
+            f"categories, preset {describe_params('CBLM', model.get_params())} "
+            f"({time.perf_counter() - t0:.1f} s); components unchanged"
         )
 
     app.add_typer(train_app, name="train")
@@ -150,30 +257,42 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         seed: Annotated[int, typer.Option(help="Seed of the sensor-noise draws")] = 0,
         noise: Annotated[float, typer.Option(help="Sensor noise (sigma x channel range)")] = 0.0,
         out: Annotated[Path | None, typer.Option("-o", "--out", help="Trace (Parquet)")] = None,
-        plot: Annotated[Path | None, typer.Option(help="PNG of the run")] = None,
+        plot: Annotated[
+            Path | None,
+            typer.Option(help="Plot of the run, in its extension's format (.png, .svg, .pdf)"),
+        ] = None,
     ) -> None:
-        """Perform a learned behavior from a start to a goal in the simulator."""
+        """Perform a learned behavior from a start to a goal in the simulator.
+
+        The trace (-o) and the plot (--plot) are written together, or neither is.
+        """
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.sim import make_env
-        from behavior_hmm.teach import check_start
 
         _check_sim(sim)
-        model = load_model(model_file)
-        begin = parse_assignments(start, "--start")
-        check_start(begin)
+        check_seed(seed)
+        check_noise(noise)
+        check_outputs({"MODEL_FILE": model_file}, {"-o": out, "--plot": plot}, plots=("--plot",))
+        begin = parse_start(start)
         target = parse_assignments(goal, "--goal") if goal is not None else None
+        model = load_model(model_file)
         if target is not None:
             model.resolve_goal(target)  # refuse a bad goal before any motion
         env = make_env(sim)
         trace = model.generate(env, start=begin, goal=target, seed=seed, noise=noise)
         summary = trace.summary()
         typer.echo(json.dumps(summary, default=float))
+        with all_or_none():
+            if out is not None:
+                trace.write(out)
+            if plot is not None:
+                from behavior_hmm.viz import plot_trace
+
+                plot_trace(trace, plot)
         if out is not None:
-            trace.write(out)
             typer.echo(f"trace: {out}")
         if plot is not None:
-            from behavior_hmm.viz import plot_trace
-
-            plot_trace(trace, plot)
             typer.echo(f"plot: {plot}")
         if not trace.goal_reached:
             raise typer.Exit(code=1)
@@ -200,16 +319,29 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             Path | None, typer.Option(help="Write an HTML report (tables and plots)")
         ] = None,
     ) -> None:
-        """Score a model (and baselines) against the teacher from test starts."""
-        from behavior_hmm._atomic import atomic_write_bytes
+        """Score a model (and baselines) against the teacher from test starts.
+
+        Every start (and its goal) is checked before the first case runs; --json and
+        --report are written together, or neither is.
+        """
+        from behavior_hmm._atomic import all_or_none, atomic_write_bytes
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.evaluate import evaluate_model
         from behavior_hmm.teach import read_starts, test_starts
 
         _check_sim(sim)
-        if noise < 0:
-            raise ConfigError(f"--noise must be >= 0, got {noise}")
+        check_seed(seed)
+        check_noise(noise)
+        inputs: dict[str, Any] = {"MODEL_FILE": model_file, "--starts": starts, "--data": data}
+        outputs = {"--json": json_out, "--report": report}
+        check_outputs(inputs, outputs)
         model = load_model(model_file)
+        if baseline and data is None and getattr(model, "train_data_", None):
+            # the baselines train on the model's own data file: never write over it
+            inputs["the model's training data"] = Path(model.train_data_)
+            check_outputs(inputs, outputs)
         chosen = read_starts(starts) if starts is not None else test_starts(model.behavior_)
+        _check_cases(model, chosen, starts)
         baselines = _baselines(baseline or [], model, data, seed)
         with progress() as bar:
             task = bar.add_task(f"evaluate {model.behavior_} ({sim})", total=None)
@@ -225,12 +357,14 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             )
         traces = result.pop("_traces", None)
         text = json.dumps(result, indent=1, default=float)
-        if json_out is not None:
-            atomic_write_bytes(json_out, text.encode())
-        if report is not None:
-            from behavior_hmm.viz import write_evaluation_report
+        with all_or_none():
+            if json_out is not None:
+                atomic_write_bytes(json_out, text.encode())
+            if report is not None:
+                from behavior_hmm.viz import write_evaluation_report
 
-            write_evaluation_report(result, traces, report)
+                write_evaluation_report(result, traces, report)
+        if report is not None:
             typer.echo(f"report: {report}")
         _print_evaluation(result)
 
@@ -243,16 +377,34 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
         seed: Annotated[int, typer.Option(help="Seed")] = 0,
         noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+        preset: PresetOption = None,
+        config: ConfigOption = None,
+        set_: SetOption = None,
     ) -> None:
         """Thesis tables 6.3 and 6.4: SBLM vs the thesis and behavior cloning."""
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.evaluate._experiments import run_simple_experiment
         from behavior_hmm.viz import write_simple_report
 
         _check_sim(sim)
+        check_seed(seed)
+        check_noise(noise)
+        check_outputs({"--config": config}, {}, folders={"-o": out})
+        name, params = model_params(("SBLM",), preset, config, set_)
         results = _with_progress(
-            progress, f"experiment simple ({sim})", run_simple_experiment, sim, seed, noise
+            progress,
+            f"experiment simple ({sim}, {name} preset)",
+            run_simple_experiment,
+            sim,
+            seed,
+            noise,
+            sblm_params=params["SBLM"],
         )
-        typer.echo(write_simple_report(results, out))
+        results["preset"] = name
+        with all_or_none():  # every file of the report, or none
+            table = write_simple_report(results, out)
+        typer.echo(table)
         typer.echo(f"results: {out}/results.json, figures and table.md")
 
     @experiment_app.command("complex")
@@ -264,17 +416,143 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
         seed: Annotated[int, typer.Option(help="Seed")] = 0,
         noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+        preset: PresetOption = None,
+        config: ConfigOption = None,
+        set_: SetOption = None,
     ) -> None:
         """Thesis table 6.5 and fig 6.10, plus position over {turn, approach, retreat}."""
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.evaluate._experiments import run_complex_experiment
         from behavior_hmm.viz import write_complex_report
 
         _check_sim(sim)
+        check_seed(seed)
+        check_noise(noise)
+        check_outputs({"--config": config}, {}, folders={"-o": out})
+        name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
         results = _with_progress(
-            progress, f"experiment complex ({sim})", run_complex_experiment, sim, seed, noise
+            progress,
+            f"experiment complex ({sim}, {name} preset)",
+            run_complex_experiment,
+            sim,
+            seed,
+            noise,
+            sblm_params=params["SBLM"],
+            cblm_params=params["CBLM"],
         )
-        typer.echo(write_complex_report(results, out))
+        results["preset"] = name
+        with all_or_none():  # every file of the report, or none
+            table = write_complex_report(results, out)
+        typer.echo(table)
         typer.echo(f"results: {out}/results.json, figures and table.md")
+
+    @experiment_app.command("ablation")
+    @wrap
+    def experiment_ablation(
+        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
+            "results/ablation"
+        ),
+        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
+        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+        task: Annotated[
+            list[str] | None,
+            typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
+        ] = None,
+        departure: Annotated[
+            list[str] | None,
+            typer.Option(help="Only this departure's rows (repeatable), e.g. onset_clock"),
+        ] = None,
+    ) -> None:
+        """What each departure from the thesis buys: thesis, thesis + each, default, default - each.
+
+        Every row is trained on the same demonstrations and scored from the test starts,
+        beside the all-zero floor. Writes results.json, table.md and ablation.png.
+        Example: behavior-hmm experiment ablation --sim kinematic --task turn -o results/abl
+        """
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
+        from behavior_hmm.evaluate._ablation import ablation_rows
+        from behavior_hmm.evaluate._ablation import task as ablation_task
+        from behavior_hmm.viz._ablation import write_ablation_report
+
+        _check_sim(sim)
+        check_seed(seed)
+        check_noise(noise)
+        check_outputs({}, {}, folders={"-o": out})
+        from behavior_hmm.models._presets import departure as named_departure
+
+        for name in departure or []:
+            named_departure(name)  # refuse bad names before any work
+        for name in task or []:
+            ablation_rows(ablation_task(name), departure)
+        from behavior_hmm.evaluate._ablation import run_ablation
+
+        results = _with_progress(
+            progress,
+            f"experiment ablation ({sim})",
+            run_ablation,
+            sim,
+            seed,
+            noise,
+            tasks=task or None,
+            departures=departure or None,
+        )
+        with all_or_none():  # every file of the report, or none
+            table = write_ablation_report(results, out)
+        typer.echo(table)
+        typer.echo(f"results: {out}/results.json, table.md and ablation.png")
+
+    @experiment_app.command("faults")
+    @wrap
+    def experiment_faults(
+        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
+            "results/faults"
+        ),
+        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
+        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        task: Annotated[
+            list[str] | None,
+            typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
+        ] = None,
+        fault: Annotated[
+            list[str] | None,
+            typer.Option(
+                help="Only this fault kind (repeatable): noise, wheel_mismatch, motor_lag, "
+                "speed_limit, push_bearing, push_distance, dropout"
+            ),
+        ] = None,
+    ) -> None:
+        """Fault sweep: goal reached and success rate of the default models under faults.
+
+        Sensor noise, wheel mismatch, motor lag, wheel-speed limits, pushes and NaN
+        dropouts, one at a time, from each task's 15 test starts. Writes results.json,
+        table.md, faults_goal.png and faults_success.png.
+        Example: behavior-hmm experiment faults --sim kinematic --task turn --fault noise
+        """
+        from behavior_hmm.evaluate._ablation import task as ablation_task
+        from behavior_hmm.evaluate._faults import fault_kind, run_faults
+        from behavior_hmm.viz._faults import write_faults_report
+
+        _check_sim(sim)
+        for name in task or []:
+            ablation_task(name)  # refuse bad names before any work
+        for name in fault or []:
+            fault_kind(name)
+        if out.exists() and not out.is_dir():
+            raise ConfigError(f"{out} exists and is not a folder")
+        with progress() as bar:
+            job = bar.add_task(f"experiment faults ({sim})", total=None)
+            results = run_faults(
+                sim=sim,
+                seed=seed,
+                tasks=task or None,
+                faults=fault or None,
+                progress=lambda d, t: bar.update(job, completed=d, total=t),
+            )
+        typer.echo(write_faults_report(results, out))
+        typer.echo(f"results: {out}/results.json, table.md, faults_goal.png, faults_success.png")
 
     @experiment_app.command("categorization")
     @wrap
@@ -286,6 +564,8 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         seed: Annotated[int, typer.Option(help="Seed")] = 0,
     ) -> None:
         """Thesis §6.1: turn primitives at vigilance 0.85 and 0.75 (table 6.1, figs 6.1-6.4)."""
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.evaluate._categorization import (
             TABLE_6_1_STARTS,
             run_categorization_experiment,
@@ -294,12 +574,16 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.viz._categories import write_categorization_report
 
         _check_sim(sim)
+        check_seed(seed)
+        check_outputs({}, {}, folders={"-o": out})
         train = collect("turn", sim=sim, seed=seed)
         samples = collect(
             "turn", [{"angle": a} for a in TABLE_6_1_STARTS], sim=sim, seed=seed + 1000
         )
         results = run_categorization_experiment(train, samples)
-        typer.echo(write_categorization_report(results, out))
+        with all_or_none():  # every file of the report, or none
+            table = write_categorization_report(results, out)
+        typer.echo(table)
         typer.echo(f"figures and categorization.json in {out}")
 
     @experiment_app.command("generators")
@@ -312,7 +596,13 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         epochs: Annotated[int, typer.Option(help="Epochs per setting")] = 100,
         seed: Annotated[int, typer.Option(help="Seed")] = 0,
     ) -> None:
-        """Thesis §6.2: learning rate, momentum and hidden-layer sweeps (figs 6.5-6.7)."""
+        """Thesis §6.2 and appendix A: generator training sweeps (figs 6.5-6.7, A.1).
+
+        One representative turn primitive (the robot moving, its commands changing),
+        incremental training; test error against iterations (samples presented).
+        """
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.cobart import CobART
         from behavior_hmm.data import CommandScaler, SignalPipeline
         from behavior_hmm.evaluate import run_generator_sweeps
@@ -321,19 +611,47 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.viz import plot_generator_sweeps
 
         _check_sim(sim)
+        check_seed(seed)
+        if epochs < 1:
+            raise ConfigError(f"--epochs must be an integer >= 1, got {epochs}")
+        check_outputs({}, {}, folders={"-o": out})
         data = collect("turn", sim=sim, seed=seed)
         x = SignalPipeline(("angle",)).transform(data)
         primitives = CobART.motion_primitives().fit(x, data.lengths).labels_
         windows = make_windows(x, data.lengths, 10)
+        # appendix A: two-input networks (angle and angular velocity, 20 inputs) on the
+        # same primitive's rows
+        x2 = SignalPipeline(("angle", "angular_velocity")).transform(data)
+        windows2 = make_windows(x2, data.lengths, 10)
         y = CommandScaler().fit(data.commands).transform(data.commands)
-        report = run_generator_sweeps(windows, y, primitives, out, epochs=epochs, random_state=seed)
-        figures = plot_generator_sweeps(report, out)
+        with all_or_none():  # the summary and every figure, or none
+            report = run_generator_sweeps(
+                windows,
+                y,
+                primitives,
+                out,
+                epochs=epochs,
+                X_two_inputs=windows2,
+                inputs_label="angle",
+                two_inputs_label="angle, angular velocity",
+                random_state=seed,
+            )
+            figures = plot_generator_sweeps(report, out)
+        chosen = report["selection"]["chosen"]
+        typer.echo(
+            f"primitive {report['primitive']}: {chosen['n_samples']} samples, target std "
+            f"{chosen['target_std']:.3f}, RMS {chosen['target_rms']:.3f} (medians "
+            f"{report['selection']['median_target_std']:.3f}, "
+            f"{report['selection']['median_target_rms']:.3f}); {report['n_train']} training "
+            f"samples = iterations per epoch"
+        )
         for name, entries in report["sweeps"].items():
-            typer.echo(f"{name} sweep (primitive {report['primitive']}, {report['n_train']} rows):")
+            typer.echo(f"{name} sweep:")
             for label, entry in entries.items():
                 typer.echo(
-                    f"  {label:16s} best test RMS {entry['best_test_error']:.4f} "
-                    f"at epoch {entry['best_epoch']}, final {entry['final_test_error']:.4f}"
+                    f"  {label:16s} best test RMS {entry['best_test_error']:.4f} at iteration "
+                    f"{entry['best_iteration']} (epoch {entry['best_epoch']}), final "
+                    f"{entry['final_test_error']:.4f}"
                 )
         typer.echo("figures: " + ", ".join(figures.values()))
 
@@ -347,8 +665,9 @@ def _with_progress(
     sim: str,
     seed: int,
     noise: float,
+    **kwargs: Any,
 ) -> dict[str, Any]:
-    """Run an experiment function under a progress bar."""
+    """Run an experiment function under a progress bar (``kwargs`` passed on)."""
     with progress() as bar:
         task = bar.add_task(label, total=None)
         return experiment(
@@ -356,7 +675,30 @@ def _with_progress(
             seed=seed,
             noise=noise,
             progress=lambda d, t: bar.update(task, completed=d, total=t),
+            **kwargs,
         )
+
+
+def _check_cases(model: Any, starts: list[dict[str, float]], file: Path | None) -> None:
+    """Refuse, before the first case runs, any start the teacher cannot demonstrate or
+    whose goal (``goal_<channel>``) the model cannot take."""
+    from behavior_hmm.evaluate import split_start
+    from behavior_hmm.teach import BEHAVIORS, complete_start, plan_phases
+
+    behavior = str(model.behavior_)
+    for i, row in enumerate(starts):
+        begin, goal = split_start(row)
+        try:
+            full = complete_start(behavior, begin)
+            if behavior in BEHAVIORS:
+                plan_phases(behavior, full["angle"], full["distance"], goal.get("distance"))
+            if goal:
+                model.resolve_goal(goal)
+        except ConfigError as err:
+            values = ", ".join(f"{key} {value:g}" for key, value in row.items())
+            raise DatasetError(
+                f"start {i + 1} ({values}): {err}", file=None if file is None else str(file)
+            ) from None
 
 
 def _baselines(names: list[str], model: Any, data: Path | None, seed: int) -> dict[str, Any]:

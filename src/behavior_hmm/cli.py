@@ -68,6 +68,31 @@ def _user_errors(func: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
+#: Standard deviations of sensor noise that must fit inside the plausible bounds.
+NOISE_SIGMAS = 5.0
+
+
+def max_noise() -> float:
+    """The largest ``--noise`` sigma a recorded dataset can pass validation with.
+
+    Noise of sigma times a channel's normalization range must, to ``NOISE_SIGMAS``
+    standard deviations, stay within the plausible bounds ``data.read`` enforces
+    (``VALUE_BOUNDS``) beyond the channel's range; the angle is wrapped, so it is exempt.
+    The distance binds: 0.5 m of slack under 0 m on a 1.2 m range gives about 0.083.
+    """
+    from behavior_hmm.data._channels import SENSOR_RANGES
+    from behavior_hmm.data._validate import VALUE_BOUNDS
+
+    limits = []
+    for name, (lo, hi) in SENSOR_RANGES.items():
+        if name == "angle":  # readings are wrapped into (-180, 180]
+            continue
+        bound_lo, bound_hi = VALUE_BOUNDS[name]
+        slack = min(lo - bound_lo, bound_hi - hi)
+        limits.append(slack / (NOISE_SIGMAS * (hi - lo)))
+    return min(limits)
+
+
 def _check_sim(sim: str) -> str:
     if sim not in SIMS:
         raise ConfigError(f"unknown simulator '{sim}'; choose one of {', '.join(SIMS)}")
@@ -141,6 +166,7 @@ def collect(
     import math
 
     from behavior_hmm import data
+    from behavior_hmm._paths import check_outputs
     from behavior_hmm.errors import DatasetError
     from behavior_hmm.teach import (
         BEHAVIORS,
@@ -159,10 +185,14 @@ def collect(
     _check_sim(sim)
     if not math.isfinite(noise) or noise < 0:
         raise ConfigError(f"--noise must be a finite number >= 0, got {noise}")
+    if noise > max_noise():
+        raise ConfigError(
+            f"--noise {noise:g} is too large: at most {max_noise():.3g}, beyond which the "
+            "noisy readings leave the plausible range every dataset is checked against"
+        )
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
-    if starts is not None and starts.resolve() == out.resolve():
-        raise ConfigError(f"-o {out} would overwrite the starts file")
+    check_outputs({"--starts": starts}, {"-o": out})
     chosen = read_starts(starts) if starts is not None else default_starts(behavior)
     # Check every start against the behavior now, not after minutes of simulation.
     for i, start in enumerate(chosen):
@@ -176,7 +206,17 @@ def collect(
                 file=None if starts is None else str(starts),
                 field=None if "distance" in start else "distance",
             ) from None
-    dataset = _collect_with_progress(behavior, chosen, sim, seed, noise)
+    try:
+        dataset = _collect_with_progress(behavior, chosen, sim, seed, noise)
+    except DatasetError as err:  # the recorded data failed validation: say which data
+        hint = f"; nothing written to {out}" + (" (try a smaller --noise)" if noise else "")
+        raise DatasetError(
+            err.reason + hint,
+            file="recorded demonstrations",
+            episode=err.episode,
+            row=err.row,
+            field=err.field,
+        ) from None
     data.write(dataset, out)
     typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
 
@@ -216,8 +256,9 @@ def import_csv(
     sep = "\t" if delimiter in ("tab", "\\t") else delimiter
     if len(sep) != 1:
         raise ConfigError(f"--delimiter must be one character or 'tab', got '{delimiter}'")
-    if csv_file.resolve() == out.resolve():
-        raise ConfigError(f"-o {out} would overwrite the CSV file being imported")
+    from behavior_hmm._paths import check_outputs
+
+    check_outputs({"CSV_FILE": csv_file}, {"-o": out})
     metadata: dict[str, Any] = {}
     if behavior is not None:
         metadata["behavior"] = behavior
@@ -237,21 +278,27 @@ def import_csv(
 @app.command()
 @_user_errors
 def inspect(
-    dataset_file: Annotated[Path, typer.Argument(help="A dataset (Parquet)")],
+    dataset_file: Annotated[Path, typer.Argument(help="A dataset (Parquet) or a model (.bhmm)")],
     plot: Annotated[
-        Path | None, typer.Option(help="PNG of the demonstrations (default: DATA.png)")
+        Path | None,
+        typer.Option(help="Plot of the demonstrations, .png, .svg, .pdf, ... (default: DATA.png)"),
     ] = None,
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Write the summary as JSON")
     ] = None,
 ) -> None:
-    """Summarize a dataset (episodes, durations, channel ranges) and plot it as a PNG.
+    """Summarize a dataset and plot it, or show a model's preset and effective parameters.
 
-    The plot shows each demonstration as time-vs-angle and time-vs-distance curves
-    (thesis figures 6.8-6.10).
+    For a dataset: episodes, durations, channel ranges, and a PNG of the demonstrations
+    as time-vs-angle and time-vs-distance curves (thesis figures 6.8-6.10). For a model:
+    its kind, behavior, inputs, sizes, the preset its parameters follow and every
+    parameter. Example: behavior-hmm inspect models/turn.bhmm
     """
+    import zipfile
+
     from behavior_hmm import data
-    from behavior_hmm._atomic import atomic_write_bytes
+    from behavior_hmm._atomic import all_or_none, atomic_write_bytes
+    from behavior_hmm._paths import check_outputs
     from behavior_hmm.viz import plot_demonstrations
 
     if dataset_file.suffix.lower() in (".csv", ".tsv", ".txt"):
@@ -259,22 +306,82 @@ def inspect(
             f"{dataset_file}: inspect reads Parquet datasets; "
             "convert a CSV log first with 'behavior-hmm import-csv'"
         )
-    png = plot if plot is not None else dataset_file.with_suffix(".png")
-    for option, path in (("--plot", png), ("--json", json_out)):
-        if path is not None and path.resolve() == dataset_file.resolve():
-            raise ConfigError(f"{option} {path} would overwrite the dataset")
-    dataset = data.read(dataset_file)
-    summary = data.summarize(dataset)
-    _print_summary(dataset_file, summary)
-    plot_demonstrations(dataset, png)
-    typer.echo(f"plot: {png}")
+    is_model = dataset_file.is_file() and zipfile.is_zipfile(dataset_file)
+    if is_model and plot is not None:
+        raise ConfigError(f"--plot draws datasets; {dataset_file} is a model file")
+    png = None if is_model else (plot if plot is not None else dataset_file.with_suffix(".png"))
+    check_outputs({"DATA": dataset_file}, {"--plot": png, "--json": json_out}, plots=("--plot",))
+    with all_or_none():  # the plot and the JSON, or neither
+        if is_model:
+            summary = _model_summary(dataset_file)
+            _print_model_summary(dataset_file, summary)
+        else:
+            dataset = data.read(dataset_file)
+            summary = data.summarize(dataset)
+            _print_summary(dataset_file, summary)
+            assert png is not None
+            plot_demonstrations(dataset, png)
+        if json_out is not None:
+            text = json.dumps(summary, indent=2, default=str) + "\n"
+            try:
+                atomic_write_bytes(json_out, text.encode())
+            except OSError as exc:
+                raise ConfigError(
+                    f"{json_out}: cannot write JSON ({exc.strerror or exc})"
+                ) from None
+    if png is not None:
+        typer.echo(f"plot: {png}")
     if json_out is not None:
-        text = json.dumps(summary, indent=2, default=str) + "\n"
-        try:
-            atomic_write_bytes(json_out, text.encode())
-        except OSError as exc:
-            raise ConfigError(f"{json_out}: cannot write JSON ({exc.strerror or exc})") from None
         typer.echo(f"summary: {json_out}")
+
+
+def _model_summary(path: Path) -> dict[str, Any]:
+    """What ``inspect`` shows of a model: kind, behavior, sizes, preset, parameters."""
+    from behavior_hmm._cli_learn import load_model
+    from behavior_hmm.models import describe_params
+
+    model = load_model(path)
+    params = {k: v for k, v in model.get_params().items() if k != "components"}
+    summary: dict[str, Any] = {
+        "kind": model.kind,
+        "behavior": model.behavior_,
+        "inputs": list(model.inputs_),
+        "preset": describe_params(model.kind, params),
+        "params": params,
+        "observation_categories": int(model.observations_.n_categories_),
+        "default_goal": dict(model.default_goal_),
+        "max_steps": int(model.max_steps_),
+        "train_data": model.train_data_,
+    }
+    if model.kind == "SBLM":
+        summary["primitives"] = int(model.primitives_.n_categories_)
+    else:
+        summary["components"] = list(model.names_)
+    return summary
+
+
+def _print_model_summary(path: Path, summary: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console(highlight=False)
+    console.print(str(path), style="bold", markup=False)
+    for key in ("kind", "behavior", "inputs", "preset", "primitives", "components"):
+        if key in summary:
+            value = summary[key]
+            text = ", ".join(value) if isinstance(value, list) else str(value)
+            console.print(f"  {key}: {text}", markup=False)
+    console.print(f"  observation categories: {summary['observation_categories']}")
+    goal = ", ".join(f"{k} {v:g}" for k, v in summary["default_goal"].items())
+    console.print(f"  default goal: {goal}; step limit {summary['max_steps']}", markup=False)
+    if summary.get("train_data"):
+        console.print(f"  trained on: {summary['train_data']}", markup=False)
+    table = Table(title="parameters")
+    table.add_column("parameter")
+    table.add_column("value")
+    for name, value in summary["params"].items():
+        table.add_row(name, repr(value))
+    console.print(table)
 
 
 def _print_summary(path: Path, summary: dict[str, Any]) -> None:
@@ -322,10 +429,10 @@ def bench(
 ) -> None:
     """Run a benchmark from benchmarks/ and print its results (medians) as JSON."""
     from behavior_hmm._atomic import atomic_write_bytes
+    from behavior_hmm._paths import check_outputs
     from benchmarks import run_benchmark
 
-    if json_out is not None and json_out.is_dir():
-        raise ConfigError(f"--json {json_out} is a folder; give a file name")
+    check_outputs({}, {"--json": json_out})
     results = run_benchmark(name, quick=quick)
     text = json.dumps(results, indent=2, sort_keys=True)
     typer.echo(text)
@@ -355,6 +462,7 @@ def demo(
     import time
 
     from behavior_hmm import data
+    from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate import evaluate_model
     from behavior_hmm.models import CBLM, SBLM
     from behavior_hmm.sim import make_env
@@ -364,8 +472,7 @@ def demo(
     _check_sim(sim)
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"-o {out} is a file; give a folder for the demo's output")
+    check_outputs({}, {}, folders={"-o": out})
     out.mkdir(parents=True, exist_ok=True)
     datasets = {}
     for behavior in ("turn", "approach", "turn-approach"):
@@ -446,6 +553,14 @@ def _register_learning_commands() -> None:
 _register_learning_commands()
 
 
+def _terminated(signum: int, frame: Any) -> None:
+    """SIGTERM: stop like Ctrl-C, so every temporary file is removed on the way out."""
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     """Entry point of the ``behavior-hmm`` console script."""
+    import signal
+
+    signal.signal(signal.SIGTERM, _terminated)
     app()

@@ -34,3 +34,13 @@ def turn_parquet(tmp_path_factory: pytest.TempPathFactory) -> Path:
     result = CliRunner().invoke(app, [str(a) for a in args])
     assert result.exit_code == 0, result.output
     return out
+
+
+@pytest.fixture(scope="session")
+def turn_bhmm(turn_parquet: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A turn model (.bhmm) trained by the CLI on ``turn_parquet`` (angle input)."""
+    out = tmp_path_factory.mktemp("model") / "turn.bhmm"
+    args = ["train", "simple", turn_parquet, "--inputs", "angle", "-o", out]
+    result = CliRunner().invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    return out

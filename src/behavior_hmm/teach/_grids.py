@@ -77,8 +77,8 @@ def read_starts(path: str | Path) -> list[Start]:
     Raises
     ------
     DatasetError
-        For a missing file, unknown columns, non-numbers or starts outside the arena,
-        naming the file, row (1-based line number) and field.
+        For a missing or unreadable file, unknown or repeated columns, non-numbers or
+        starts outside the arena, naming the file, row (1-based line number) and field.
     """
     from behavior_hmm.errors import DatasetError
 
@@ -91,6 +91,13 @@ def read_starts(path: str | Path) -> list[Start]:
             if not fields:
                 raise DatasetError(
                     "empty starts file (expected columns angle and/or distance)", file=file
+                )
+            repeated = [f for i, f in enumerate(fields) if f in fields[:i]]
+            if repeated:
+                raise DatasetError(
+                    "column given twice (each of angle, distance, goal_<channel> at most once)",
+                    file=file,
+                    field=repeated[0],
                 )
             unknown = [f for f in fields if f not in allowed]
             if unknown:
@@ -131,6 +138,8 @@ def read_starts(path: str | Path) -> list[Start]:
         raise DatasetError(f"cannot read starts file: {err.strerror}", file=file) from None
     except UnicodeDecodeError:
         raise DatasetError("not a UTF-8 text file", file=file) from None
+    except csv.Error as err:  # e.g. a NUL byte or a cell beyond the csv module's limit
+        raise DatasetError(f"not a readable CSV file ({err})", file=file) from None
     if not starts:
         raise DatasetError("no starts in file", file=file)
     return starts

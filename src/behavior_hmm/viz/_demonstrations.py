@@ -13,6 +13,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from behavior_hmm._atomic import atomic_write_with
+from behavior_hmm._paths import plot_format
 from behavior_hmm.data import UNITS, Dataset
 from behavior_hmm.errors import BehaviorHMMError, ConfigError
 
@@ -108,7 +109,8 @@ def plot_demonstrations(
 
     target = Path(path)
     try:
-        atomic_write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
+        fmt = plot_format(target)
+        atomic_write_with(target, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))
     except OSError as exc:
         raise BehaviorHMMError(f"{path}: cannot write plot ({exc.strerror or exc})") from None
     return target

@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 
 from behavior_hmm._atomic import atomic_write_bytes
 from behavior_hmm.data import CONTROL_PERIOD, SENSOR_CHANNELS
+from behavior_hmm.viz._traces import run_series
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em; color: #222; max-width: 1100px; }
@@ -36,18 +37,20 @@ def _run_figure(trace: Any, demo: dict[str, np.ndarray], title: str) -> str:
     channels = [c for c in ("angle", "distance") if c in trace.goal] or ["angle"]
     fig = Figure(figsize=(9, 2.4 * (len(channels) + 1)), layout="constrained")
     axes = fig.subplots(len(channels) + 1, 1, sharex=True)
-    t = np.asarray(trace.t)
+    t, readings, commands = run_series(trace)  # a refused run: one step, no reading
+    marker = "o" if len(t) == 1 else None
     td = np.arange(len(demo["left"])) * CONTROL_PERIOD
     for ax, name in zip(axes, channels, strict=False):
         ax.plot(td, demo[name], "k--", lw=1.2, label="demonstrated")
-        ax.plot(t, trace.reading_array[:, SENSOR_CHANNELS.index(name)], lw=1.6, label="generated")
+        ax.plot(
+            t, readings[:, SENSOR_CHANNELS.index(name)], lw=1.6, marker=marker, label="generated"
+        )
         ax.set_ylabel(name)
         ax.grid(alpha=0.3)
     ax = axes[-1]
-    commands = trace.command_array
     for j, side in enumerate(("left", "right")):
         ax.plot(td, demo[side], f"C{j}--", lw=1)
-        ax.plot(t, commands[:, j], f"C{j}", lw=1.5, label=f"{side} (rad/s)")
+        ax.plot(t, commands[:, j], f"C{j}", lw=1.5, marker=marker, label=f"{side} (rad/s)")
     ax.set_xlabel("time (s)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

@@ -11,13 +11,33 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from behavior_hmm._atomic import atomic_write_with
+from behavior_hmm._paths import plot_format
 from behavior_hmm.data import CONTROL_PERIOD, SENSOR_CHANNELS, UNITS
 
 
 def _save(fig: Figure, path: str | os.PathLike[str], dpi: int = 120) -> Path:
     target = Path(path)
-    atomic_write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
+    fmt = plot_format(target)  # the format the extension names (checked by the CLI)
+    atomic_write_with(target, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))
     return target
+
+
+def run_series(trace: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times (n,), readings (n, 4) and commands (n, 2) of a run, all of one length.
+
+    A run refused before any motion (an unreachable goal) records one step and no
+    reading: its reading is then the final observation (where it stood), or NaN.
+    """
+    t = np.asarray(trace.t, dtype=np.float64)
+    readings = trace.reading_array
+    if len(readings) != len(t):
+        final = getattr(trace, "final_observation", None)
+        row = np.full(len(SENSOR_CHANNELS), np.nan) if final is None else np.asarray(final)
+        readings = np.tile(row, (len(t), 1))
+    commands = trace.command_array
+    if len(commands) != len(t):
+        commands = np.zeros((len(t), 2))
+    return t, readings, commands
 
 
 def plot_trace(
@@ -37,22 +57,21 @@ def plot_trace(
     reference
         Optional demonstrated commands (n, 2) from the same start, drawn dashed.
     """
-    t = np.asarray(trace.t)
-    readings = trace.reading_array
-    commands = trace.command_array
+    t, readings, commands = run_series(trace)
+    marker = "o" if len(t) == 1 else None  # a one-step run is a point, not a line
     channels = [c for c in ("angle", "distance") if c in trace.goal] or ["angle", "distance"]
     fig = Figure(figsize=(8, 2.2 * (len(channels) + 2)), layout="constrained")
     axes = fig.subplots(len(channels) + 2, 1, sharex=True)
     for ax, name in zip(axes, channels, strict=False):
-        ax.plot(t, readings[:, SENSOR_CHANNELS.index(name)], label="generated")
+        ax.plot(t, readings[:, SENSOR_CHANNELS.index(name)], marker=marker, label="generated")
         if name in trace.goal:
             ax.axhline(trace.goal[name], color="k", lw=0.8, ls=":", label="goal")
         ax.set_ylabel(f"{name} ({UNITS[name]})")
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
     ax = axes[len(channels)]
-    ax.plot(t, commands[:, 0], label="left")
-    ax.plot(t, commands[:, 1], label="right")
+    ax.plot(t, commands[:, 0], marker=marker, label="left")
+    ax.plot(t, commands[:, 1], marker=marker, label="right")
     if reference is not None:
         tr = np.arange(len(reference)) * CONTROL_PERIOD
         ax.plot(tr, reference[:, 0], "C0--", lw=1, label="left (demo)")
@@ -61,7 +80,8 @@ def plot_trace(
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8, ncol=2)
     ax = axes[-1]
-    ax.step(t, trace.state, where="post", lw=1)
+    if len(trace.state) == len(t):  # a refused run has no active state
+        ax.step(t, trace.state, where="post", lw=1, marker=marker)
     ax.set_ylabel("active state")
     ax.set_xlabel("time (s)")
     ax.grid(alpha=0.3)
@@ -103,30 +123,29 @@ def plot_generated_vs_demonstrated(
 def plot_complex_run(run: dict[str, Any], path: str | os.PathLike[str]) -> Path:
     """Angle and distance of a complex run against the demonstration (thesis fig 6.10).
 
-    The background shows which component was active (generated run).
+    The generated run is coloured by the active component (as in the appendix B.3 grid,
+    :func:`~behavior_hmm.viz.plot_complex_grid`), over a light band of the same colour.
     """
+    from behavior_hmm.viz._grids import _complex_handles, component_colors, draw_complex_channel
+
     t = np.asarray(run["t"])
     fig = Figure(figsize=(8, 5.5), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
-    names = list(dict.fromkeys(n for n in run["component"] if n))
-    colors = {name: f"C{i + 2}" for i, name in enumerate(names)}
     comp = list(run["component"])
+    colors = component_colors(comp)
     for ax, channel in zip(axes, ("angle", "distance"), strict=True):
-        demo = np.asarray(run[f"demo_{channel}"])
-        ax.plot(np.arange(len(demo)) * CONTROL_PERIOD, demo, "k--", lw=1.2, label="demonstrated")
-        ax.plot(t, run[channel], lw=1.8, label="generated")
+        draw_complex_channel(run, channel, ax=ax, colors=colors, fontsize=10)
         start = 0
         for k in range(1, len(comp) + 1):
             if k == len(comp) or comp[k] != comp[start]:
                 if comp[start]:
-                    ax.axvspan(t[start], t[k - 1], color=colors[comp[start]], alpha=0.12, lw=0)
+                    ax.axvspan(t[start], t[k - 1], color=colors[comp[start]], alpha=0.08, lw=0)
                 start = k
         ax.set_ylabel(f"{channel} ({UNITS[channel]})")
-        ax.grid(alpha=0.3)
-    for name, color in colors.items():
-        axes[0].plot([], [], color=color, alpha=0.4, lw=8, label=f"{name} active")
-    axes[0].legend(loc="best", fontsize=8)
+    axes[0].legend(handles=_complex_handles(colors), loc="best", fontsize=8)
     axes[1].set_xlabel("time (s)")
-    start_text = ", ".join(f"{k} {v:g}" for k, v in run["start"].items())
-    fig.suptitle(f"turn & approach from {start_text}: generated vs demonstrated")
+    begin = run["start"]
+    text = f"angle {begin['angle']:g}°, distance {begin['distance']:.2f} m"
+    score = f" (success {run['success_rate']:.1f} %)" if "success_rate" in run else ""
+    fig.suptitle(f"turn & approach from {text}{score}")
     return _save(fig, path)
