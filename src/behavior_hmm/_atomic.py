@@ -32,11 +32,17 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    except OSError as err:
-        raise _renamed(err, None, target) from None
-    tmp = Path(tmp_name)
+    _TARGETS.add((target.parent, target.name))
+    with _signals_deferred():  # an interrupt cannot fall between creating and registering
+        try:
+            fd, tmp_name = tempfile.mkstemp(
+                prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent
+            )
+        except OSError as err:
+            raise _renamed(err, None, target) from None
+        tmp = Path(tmp_name)
+        _LIVE.add(tmp)
+
     keep = False
     try:
         os.close(fd)
@@ -49,6 +55,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         staged = _STAGED.get()
         if staged is None:
             os.replace(tmp, target)
+            _LIVE.discard(tmp)
         else:
             _stage(staged, tmp, target)
             keep = True
@@ -109,6 +116,7 @@ def _commit(staged: list[tuple[Path, Path]]) -> None:
                 if backup is not None:
                     _remove(backup)
                 raise _renamed(err, tmp, target) from None
+            _LIVE.discard(tmp)
             staged.pop(0)
             done.append((target, backup, existed))
     except BaseException:
@@ -146,6 +154,45 @@ def _remove(path: Path) -> None:
         path.unlink()
     except OSError:  # already gone, or nothing more we can do
         pass
+    _LIVE.discard(path)
+
+
+#: Temporary files created and not yet moved into place or removed (see remove_leftovers).
+_LIVE: set[Path] = set()
+#: (folder, name) of every target this process began to write.
+_TARGETS: set[tuple[Path, str]] = set()
+
+
+def remove_leftovers() -> None:
+    """Remove every temporary file this process created and has not moved into place.
+
+    The command line calls it on its way out: an interrupt (Ctrl-C, SIGTERM) can land
+    inside a cleanup handler itself, and this last pass catches what that left behind.
+    """
+    for tmp in list(_LIVE):
+        _remove(tmp)
+    # and by name: this process's temporary files beside every target it wrote
+    for folder, name in list(_TARGETS):
+        for tmp in folder.glob(f".{name}.{os.getpid()}.*.tmp"):
+            _remove(tmp)
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM until the block ends (POSIX, main thread; else a no-op)."""
+    import signal
+    import threading
+
+    mask = getattr(signal, "pthread_sigmask", None)
+    if mask is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    previous = mask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        mask(signal.SIG_SETMASK, previous)
 
 
 def _renamed(err: OSError, tmp: Path | None, target: Path) -> OSError:

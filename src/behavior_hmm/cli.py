@@ -562,5 +562,10 @@ def main() -> None:
     """Entry point of the ``behavior-hmm`` console script."""
     import signal
 
+    from behavior_hmm._atomic import remove_leftovers
+
     signal.signal(signal.SIGTERM, _terminated)
-    app()
+    try:
+        app()
+    finally:
+        remove_leftovers()
