@@ -531,17 +531,19 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         table.md, faults_goal.png and faults_success.png.
         Example: behavior-hmm experiment faults --sim kinematic --task turn --fault noise
         """
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
         from behavior_hmm.evaluate._ablation import task as ablation_task
         from behavior_hmm.evaluate._faults import fault_kind, run_faults
         from behavior_hmm.viz._faults import write_faults_report
 
         _check_sim(sim)
+        check_seed(seed)
         for name in task or []:
             ablation_task(name)  # refuse bad names before any work
         for name in fault or []:
             fault_kind(name)
-        if out.exists() and not out.is_dir():
-            raise ConfigError(f"{out} exists and is not a folder")
+        check_outputs({}, {}, folders={"-o": out})
         with progress() as bar:
             job = bar.add_task(f"experiment faults ({sim})", total=None)
             results = run_faults(
@@ -551,7 +553,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 faults=fault or None,
                 progress=lambda d, t: bar.update(job, completed=d, total=t),
             )
-        typer.echo(write_faults_report(results, out))
+        with all_or_none():  # every file of the report, or none
+            table = write_faults_report(results, out)
+        typer.echo(table)
         typer.echo(f"results: {out}/results.json, table.md, faults_goal.png, faults_success.png")
 
     @experiment_app.command("categorization")

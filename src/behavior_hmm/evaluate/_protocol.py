@@ -11,6 +11,8 @@ from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.evaluate._metrics import success_rate, zero_floor
 
 Progress = Callable[[int, int], None]
+#: ``case_options(i, start, reference)``: extra ``generate`` keyword arguments for case i.
+CaseOptions = Callable[[int, dict[str, float], dict[str, np.ndarray]], Mapping[str, Any]]
 
 #: Teacher behavior demonstrated for a model's behavior name.
 _TEACHER_OF = {
@@ -68,6 +70,8 @@ def evaluate_model(
     baselines: Mapping[str, Any] | None = None,
     progress: Progress | None = None,
     keep_traces: bool = False,
+    env: Any | None = None,
+    case_options: CaseOptions | None = None,
 ) -> dict[str, Any]:
     """Run ``model`` (and baselines) from every start and score them against the teacher.
 
@@ -83,6 +87,18 @@ def evaluate_model(
         Fitted baselines by name, evaluated on the same starts and references.
     progress
         Called as ``progress(done, total)``.
+    keep_traces
+        Also return the traces and reference demonstrations under ``"_traces"``.
+    env
+        Run the model and baselines in this env (e.g. other robot parameters, or a
+        wrapper injecting sensor faults) instead of ``make_env(sim)``. The teacher's
+        reference demonstrations (and the motor-limit normalization) then still come
+        from a nominal ``make_env(sim)``: every run is scored against the same
+        undisturbed demonstration. Default: one ``make_env(sim)`` for both.
+    case_options
+        Called as ``case_options(i, start, reference)`` before case ``i`` (``start``: the
+        completed start, ``reference``: the demonstration's columns); returns extra
+        keyword arguments for every runner's ``generate`` in that case (e.g. ``pushes``).
 
     Returns
     -------
@@ -96,8 +112,10 @@ def evaluate_model(
 
     if not starts:
         raise ConfigError("no starts to evaluate")
-    env = make_env(sim)
-    motor_max = float(env.unwrapped.params.max_wheel_speed)  # type: ignore[attr-defined]
+    reference_env = make_env(sim)
+    if env is None:
+        env = reference_env
+    motor_max = float(reference_env.params.max_wheel_speed)
     behavior = str(model.behavior_)
     scale = float(model.command_scale_)
     runners = {"model": model, **dict(baselines or {})}
@@ -109,14 +127,19 @@ def evaluate_model(
         begin, case_goal = split_start(row)
         teacher_behavior = _TEACHER_OF.get(behavior, behavior)
         full = complete_start(teacher_behavior, begin)
-        demo = reference_demonstration(behavior, full, case_goal, env, seed=seed + i, noise=noise)
+        demo = reference_demonstration(
+            behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
+        )
+        extra = dict(case_options(i, full, demo)) if case_options is not None else {}
         ref = np.column_stack([demo["left"], demo["right"]])
         floor = zero_floor(ref, scale)
         floor_motor = zero_floor(ref, motor_max)
         for name, runner in runners.items():
             goal = case_goal or None
             try:
-                trace = runner.generate(env, start=full, goal=goal, seed=seed + i, noise=noise)
+                trace = runner.generate(
+                    env, start=full, goal=goal, seed=seed + i, noise=noise, **extra
+                )
             except UnreachableGoalError as err:
                 # refused before any motion: scored as a robot that stayed still
                 trace = _refused(runner, full, goal, str(err))
