@@ -18,7 +18,7 @@ from behavior_hmm.data import (
     Dataset,
     SignalPipeline,
 )
-from behavior_hmm.errors import ConfigError, ModelFileError
+from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
 from behavior_hmm.generators import MotionGenerators, make_windows
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
@@ -191,6 +191,9 @@ class SBLM(LearnedBehavior):
         Median final reading of each input channel over the demonstrations.
     default_goal_ : dict
         Goal used when none is given: where the demonstrations end.
+    stops_ : ndarray of shape (n_episodes, n_inputs)
+        Final reading of every demonstration (physical units): where the behavior was
+        shown to stop (see :meth:`check_stoppable`).
     max_steps_ : int
         Step limit of a generation (twice the longest demonstration, at least 500).
     """
@@ -375,6 +378,7 @@ class SBLM(LearnedBehavior):
         self.command_scale_ = float(scaler.scale_)
         self.delta_scale_ = delta_scale
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
+        self.stops_ = np.array(raw[finals], dtype=np.float64)
         self.train_data_: str | None = None  # set by the command line to the data file
         self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         self.default_goal_ = self._default_goal(inputs)
@@ -463,6 +467,49 @@ class SBLM(LearnedBehavior):
             return dict(self.default_goal_)
         return check_goal(goal, self.inputs_)
 
+    def check_stoppable(self, goal: Mapping[str, float] | None) -> None:
+        """Refuse, before any motion, a goal where no demonstration stopped.
+
+        A simple behavior's networks learned to stop only where its demonstrations
+        stopped; a goal the demonstrations merely passed through at speed (a turn to
+        90 deg, an approach to 0.5 m) would be overshot and crept after until the step
+        limit. A goal is stoppable on each goal channel when it lies within twice the
+        channel's tolerance of a demonstrated stop, or inside the span of stops no
+        further from one than the widest gap between neighbouring stops. (A complex
+        behavior hands its components intermediate goals itself; this check is for the
+        goal a user asks for.)
+
+        Raises
+        ------
+        UnreachableGoalError
+            Naming the goals this model can stop at.
+        """
+        stops = getattr(self, "stops_", None)
+        if stops is None:
+            return
+        wanted = self.resolve_goal(goal)
+        for channel, value in wanted.items():
+            ends = np.sort(stops[:, self.inputs_.index(channel)])
+            slack = 2.0 * TOLERANCES[channel]
+            if ends.size > 1:
+                slack = max(slack, float(np.max(np.diff(ends))))
+            gaps = np.abs(ends - value)
+            if channel == "angle":
+                gaps = np.abs((gaps + 180.0) % 360.0 - 180.0)
+            if float(gaps.min()) > slack:
+                unit = "deg" if channel == "angle" else "m"
+                digits = 0 if channel == "angle" else 2
+                low, high = float(ends[0]), float(ends[-1])
+                where = f"{low:.{digits}f}"
+                if high - low > slack:
+                    where += f" to {high:.{digits}f}"
+                raise UnreachableGoalError(
+                    f"goal {channel} {value:g} {unit}: this {self.behavior_} model stops only "
+                    f"where its demonstrations stopped, {channel} {where} {unit} "
+                    f"(±{slack:.{digits + 1}f}); "
+                    f"compose it in a complex behavior to stop elsewhere"
+                )
+
     # -------------------------------------------------------------- generation
     def generate(
         self,
@@ -487,6 +534,8 @@ class SBLM(LearnedBehavior):
         for prefix, part in (("hmm", self.hmm_), ("gen", self.generators_)):
             for name, arr in part.to_arrays().items():
                 arrays[f"{prefix}.{name}"] = arr
+        if getattr(self, "stops_", None) is not None:
+            arrays["stops"] = self.stops_
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
             arrays[f"{prefix}.prototypes"] = net.prototypes_
             arrays[f"{prefix}.counts"] = net.counts_
@@ -531,6 +580,7 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("pipeline channels do not match the inputs")
         _modelfile.check_pipeline(pipeline)
         names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
+        names.add("stops")
         extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
         if extra:
             raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
@@ -588,6 +638,13 @@ class SBLM(LearnedBehavior):
         model.train_data_ = _modelfile.check_text(
             state.get("train_data"), "train_data", optional=True
         )
+        if "stops" in arrays:  # files written before it was kept have no stops
+            stops = _modelfile.check_array(arrays, "stops", ndim=2)
+            if stops.shape[1] != len(inputs) or not 0 < stops.shape[0] <= _modelfile.MAX_STEPS:
+                raise ModelFileError("array 'stops' must have one column per input")
+            if np.abs(stops).max() > _modelfile.MAX_ABS_VALUE:
+                raise ModelFileError("array 'stops' holds absurd values")
+            model.stops_ = np.array(stops, dtype=np.float64)
         return model
 
 

@@ -284,8 +284,13 @@ def run_behavior(
     Raises
     ------
     UnreachableGoalError
-        Before any motion, when no observation path leads from the start to the goal.
+        Before any motion, when no observation path leads from the start to the goal,
+        or when the goal is one the model was never shown to stop at (a simple
+        behavior's ``check_stoppable``).
     """
+    stoppable = getattr(model, "check_stoppable", None)
+    if stoppable is not None:
+        stoppable(goal)
     controller = make_controller(model, goal)
     limit = int(max_steps if max_steps is not None else model.max_steps_)
     if limit < 1:
