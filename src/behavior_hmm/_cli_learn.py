@@ -318,11 +318,22 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         report: Annotated[
             Path | None, typer.Option(help="Write an HTML report (tables and plots)")
         ] = None,
+        push: Annotated[
+            str | None,
+            typer.Option(
+                help="Push every run: at=FRACTION of the teacher's duration, angle=DEG of "
+                "bearing (sign drawn per case from the seed), distance=M, "
+                "e.g. at=0.5,angle=20"
+            ),
+        ] = None,
     ) -> None:
         """Score a model (and baselines) against the teacher from test starts.
 
         Every start (and its goal) is checked before the first case runs; --json and
-        --report are written together, or neither is.
+        --report are written together, or neither is. Each case also records the largest
+        command change in one period against the teacher's (command_jump_ratio) and the
+        primitive (SBLM) or component (CBLM) switches.
+        Example: behavior-hmm evaluate models/turn.bhmm --push at=0.5,angle=20 --json t.json
         """
         from behavior_hmm._atomic import all_or_none, atomic_write_bytes
         from behavior_hmm._paths import check_outputs
@@ -332,6 +343,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         _check_sim(sim)
         check_seed(seed)
         check_noise(noise)
+        pushed = _push(push) if push is not None else None
         inputs: dict[str, Any] = {"MODEL_FILE": model_file, "--starts": starts, "--data": data}
         outputs = {"--json": json_out, "--report": report}
         check_outputs(inputs, outputs)
@@ -354,6 +366,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 baselines=baselines,
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
                 keep_traces=report is not None,
+                push=pushed,
             )
         traces = result.pop("_traces", None)
         text = json.dumps(result, indent=1, default=float)
@@ -705,6 +718,22 @@ def _check_cases(model: Any, starts: list[dict[str, float]], file: Path | None) 
             ) from None
 
 
+def _push(text: str) -> dict[str, float]:
+    """``--push at=0.5,angle=20,distance=0.05`` checked (fraction in (0, 1], sizes bounded)."""
+    values = parse_assignments(text, "--push")
+    unknown = sorted(set(values) - {"at", "angle", "distance"})
+    if unknown:
+        raise ConfigError(f"--push: unknown key(s) {', '.join(unknown)}; use at, angle, distance")
+    at = values.setdefault("at", 0.5)
+    if not 0.0 < at <= 1.0:
+        raise ConfigError(f"--push at={at:g}: a fraction of the teacher's duration in (0, 1]")
+    if abs(values.get("angle", 0.0)) > 180.0:
+        raise ConfigError(f"--push angle={values['angle']:g}: at most 180 deg")
+    if abs(values.get("distance", 0.0)) > 1.0:
+        raise ConfigError(f"--push distance={values['distance']:g}: at most 1 m")
+    return values
+
+
 def _baselines(names: list[str], model: Any, data: Path | None, seed: int) -> dict[str, Any]:
     if not names:
         return {}
@@ -729,16 +758,26 @@ def _print_evaluation(result: dict[str, Any]) -> None:
     from rich.table import Table
 
     table = Table(title=f"{result['behavior']} on {','.join(result['inputs'])} ({result['sim']})")
-    for col in ("", "success %", "goal reached", "zero floor %", "motor-max %", "duration x"):
+    columns = ["", "success %", "goal reached", "zero floor %", "motor-max %", "duration x"]
+    columns += ["jump x (median/max)", "switches (max)"]
+    if "pushed" in result:
+        columns.append("pushed")
+    for col in columns:
         table.add_column(col)
-    rows = [("SBLM", result)] + [(n, r) for n, r in result["baselines"].items()]
+    kind = str(result.get("kind", "model"))
+    rows = [(kind, result)] + [(n, r) for n, r in result["baselines"].items()]
     for name, r in rows:
-        table.add_row(
+        cells = [
             name,
             f"{r['success_rate_mean']:.1f}",
             f"{r['goal_reached']}/{r['n']}",
             f"{r['zero_floor_mean']:.1f}",
             f"{r['success_rate_motor_max_mean']:.1f}",
             f"{r['duration_ratio_mean']:.2f}",
-        )
+            f"{r['command_jump_ratio_median']:.1f} / {r['command_jump_ratio_max']:.1f}",
+            f"{r['switches_max']}",
+        ]
+        if "pushed" in result:
+            cells.append(f"{r.get('pushed', 0)}/{r['n']}")
+        table.add_row(*cells)
     Console().print(table)

@@ -77,3 +77,27 @@ def test_bc_reaches_goals_with_tolerance_stop(turn_data: Dataset) -> None:
 def test_command_scale_is_the_demonstrations_not_the_motor_limit(result: dict) -> None:
     assert result["command_scale_at_motor_limit"] is False
     assert result["command_scale"] < 0.5 * result["motor_max"]
+
+
+def test_smoothness_and_switches_are_reported(result: dict) -> None:
+    for case in result["cases"]:
+        assert case["command_jump_ratio"] > 0 and case["switches"] >= 0
+        assert "pushed" not in case
+    ratios = [c["command_jump_ratio"] for c in result["cases"]]
+    assert result["command_jump_ratio_median"] == pytest.approx(sorted(ratios)[1])
+    assert result["command_jump_ratio_max"] == pytest.approx(max(ratios))
+    assert result["switches_max"] == max(c["switches"] for c in result["cases"])
+    assert result["kind"] == "SBLM"
+
+
+def test_a_push_is_applied_in_every_case_with_a_seeded_sign(turn_model: SBLM) -> None:
+    push = {"at": 0.5, "angle": 20.0}
+    first = evaluate_model(turn_model, STARTS, sim="kinematic", seed=3, push=push)
+    again = evaluate_model(turn_model, STARTS, sim="kinematic", seed=3, push=push)
+    plain = evaluate_model(turn_model, STARTS, sim="kinematic", seed=3)
+    assert first["pushed"] == 3 and all(c["pushed"] for c in first["cases"])
+    assert [c["steps"] for c in first["cases"]] == [c["steps"] for c in again["cases"]]
+    # a 20 deg push halfway makes the runs longer than the undisturbed ones
+    assert sum(c["steps"] for c in first["cases"]) > sum(c["steps"] for c in plain["cases"])
+    with pytest.raises(ConfigError, match="fraction"):
+        evaluate_model(turn_model, STARTS[:1], sim="kinematic", push={"at": 1.5})

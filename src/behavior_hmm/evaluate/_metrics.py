@@ -55,3 +55,31 @@ def zero_floor(demonstrated: ArrayLike, scale: float) -> float:
     """The success rate a robot that never moves gets against ``demonstrated``."""
     ref = np.asarray(demonstrated, dtype=np.float64).reshape(-1, 2)
     return success_rate(np.zeros((1, 2)), ref, scale)
+
+
+def command_jump(commands: ArrayLike) -> float:
+    """Largest change of either wheel command within one control period (rad/s).
+
+    Measured along the recorded sequence (a run that stops at its goal records its final
+    zero command, so an abrupt stop counts); 0 for fewer than two commands.
+    """
+    u = np.asarray(commands, dtype=np.float64).reshape(-1, 2)
+    if len(u) < 2:
+        return 0.0
+    return float(np.max(np.abs(np.diff(u, axis=0))))
+
+
+def command_jump_ratio(generated: ArrayLike, demonstrated: ArrayLike) -> float:
+    """:func:`command_jump` of the generated commands ÷ the teacher's from the same start.
+
+    1 means no larger jolt than the jerk-limited teacher; the teacher's own jump is
+    floored at 1e-6 rad/s so a teacher that never moves gives a finite ratio.
+    """
+    return command_jump(generated) / max(command_jump(demonstrated), 1e-6)
+
+
+def switches(states: ArrayLike) -> int:
+    """Changes of the active primitive or component along a run (``-1``: none active)."""
+    s = np.asarray(states, dtype=np.int64).ravel()
+    s = s[s >= 0]
+    return int(np.count_nonzero(np.diff(s))) if s.size > 1 else 0

@@ -8,7 +8,12 @@ from typing import Any
 import numpy as np
 
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
-from behavior_hmm.evaluate._metrics import success_rate, zero_floor
+from behavior_hmm.evaluate._metrics import (
+    command_jump_ratio,
+    success_rate,
+    switches,
+    zero_floor,
+)
 
 Progress = Callable[[int, int], None]
 #: ``case_options(i, start, reference)``: extra ``generate`` keyword arguments for case i.
@@ -72,6 +77,7 @@ def evaluate_model(
     keep_traces: bool = False,
     env: Any | None = None,
     case_options: CaseOptions | None = None,
+    push: Mapping[str, float] | None = None,
 ) -> dict[str, Any]:
     """Run ``model`` (and baselines) from every start and score them against the teacher.
 
@@ -99,6 +105,13 @@ def evaluate_model(
         Called as ``case_options(i, start, reference)`` before case ``i`` (``start``: the
         completed start, ``reference``: the demonstration's columns); returns extra
         keyword arguments for every runner's ``generate`` in that case (e.g. ``pushes``).
+    push
+        ``{"at": fraction, "angle": deg, "distance": m}``: in every case, at that fraction
+        of the teacher's duration from the same start, the robot is displaced by
+        ``angle`` degrees of bearing (its sign drawn per case from ``seed``) and
+        ``distance`` metres (the env's ``push`` option). Each case records ``pushed``
+        (the run was still going at that step); ``goal_reached`` is judged at the end,
+        after the push.
 
     Returns
     -------
@@ -131,6 +144,10 @@ def evaluate_model(
             behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
         )
         extra = dict(case_options(i, full, demo)) if case_options is not None else {}
+        push_step = None
+        if push is not None:
+            push_step, scheduled = _scheduled_push(push, len(demo["left"]), seed, i)
+            extra["pushes"] = [*extra.get("pushes", []), scheduled]
         ref = np.column_stack([demo["left"], demo["right"]])
         floor = zero_floor(ref, scale)
         floor_motor = zero_floor(ref, motor_max)
@@ -162,8 +179,14 @@ def evaluate_model(
                     "plan_changes": trace.n_plan_changes,
                     "components": _collapsed([c for c in trace.component if c]),
                     "reason": trace.reason,
+                    "command_jump_ratio": command_jump_ratio(gen, ref),
+                    # primitive changes of an SBLM, component changes of a CBLM
+                    "switches": _switches(runner, trace),
                 }
             )
+            if push_step is not None:
+                # the push acts after env step `push_step`; a run ends with one stop step
+                cases[name][-1]["pushed"] = len(gen) > push_step
             if keep_traces:
                 traces[name].append((trace, demo))
             done += 1
@@ -173,6 +196,7 @@ def evaluate_model(
     result.update(
         {
             "behavior": behavior,
+            "kind": str(getattr(model, "kind", type(model).__name__)),
             "inputs": list(getattr(model, "inputs_", [])),
             "sim": sim,
             "seed": seed,
@@ -208,7 +232,43 @@ def _summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
         "success_rate_motor_max_mean": mean("success_rate_motor_max"),
         "zero_floor_motor_max_mean": mean("zero_floor_motor_max"),
         "duration_ratio_mean": mean("duration_ratio"),
+        "command_jump_ratio_median": float(np.median([c["command_jump_ratio"] for c in cases])),
+        "command_jump_ratio_max": float(max(c["command_jump_ratio"] for c in cases)),
+        "switches_mean": mean("switches"),
+        "switches_max": int(max(c["switches"] for c in cases)),
+        **(
+            {"pushed": int(sum(c["pushed"] for c in cases))}
+            if cases and "pushed" in cases[0]
+            else {}
+        ),
     }
+
+
+def _scheduled_push(
+    push: Mapping[str, float], reference_steps: int, seed: int, case: int
+) -> tuple[int, dict[str, float]]:
+    """The env push of one case: its step and ``{"step", "angle", "distance"}``.
+
+    The bearing's sign is drawn per case from ``(seed, case)``, so every runner of the
+    case gets the same push and the same seed gives the same pushes.
+    """
+    unknown = sorted(set(push) - {"at", "angle", "distance"})
+    if unknown:
+        raise ConfigError(f"unknown push key(s) {', '.join(unknown)}; use at, angle, distance")
+    at = float(push.get("at", 0.5))
+    if not 0.0 < at <= 1.0:
+        raise ConfigError(f"push at must be a fraction in (0, 1], got {at:g}")
+    step = max(1, round(at * reference_steps))
+    sign = 1.0 if np.random.default_rng([seed, case]).random() < 0.5 else -1.0
+    angle = sign * float(push.get("angle", 0.0))
+    return step, {"step": step, "angle": angle, "distance": float(push.get("distance", 0.0))}
+
+
+def _switches(runner: Any, trace: Any) -> int:
+    """Primitive changes (SBLM) or component changes (CBLM) along a run; 0 without states."""
+    if getattr(runner, "kind", None) == "CBLM":
+        return max(0, len(_collapsed([c for c in trace.component if c])) - 1)
+    return switches(trace.state) if len(trace.state) else 0
 
 
 def _collapsed(names: list[str]) -> list[str]:

@@ -85,19 +85,24 @@ def write_evaluation_report(
         f"normalized by {result['command_scale']:.3g} rad/s (largest demonstrated command; "
         f"motor limit {result['motor_max']:.3g}). Read every score beside its all-zero floor.</p>",
         "<table><tr><th class='l'></th><th>success %</th><th>zero floor %</th>"
-        "<th>goals reached</th><th>motor-max % (floor)</th><th>duration ×</th></tr>",
+        "<th>goals reached</th><th>motor-max % (floor)</th><th>duration ×</th>"
+        "<th>command jump × teacher's (median / max)</th><th>switches (max)</th></tr>",
     ]
     for name, r in _summary_rows(result):
         parts.append(
             f"<tr><td class='l'>{e(name)}</td><td>{r['success_rate_mean']:.1f}</td>"
             f"<td>{r['zero_floor_mean']:.1f}</td><td>{r['goal_reached']}/{r['n']}</td>"
             f"<td>{r['success_rate_motor_max_mean']:.1f} ({r['zero_floor_motor_max_mean']:.1f})"
-            f"</td><td>{r['duration_ratio_mean']:.2f}</td></tr>"
+            f"</td><td>{r['duration_ratio_mean']:.2f}</td>"
+            f"<td>{r.get('command_jump_ratio_median', float('nan')):.1f} / "
+            f"{r.get('command_jump_ratio_max', float('nan')):.1f}</td>"
+            f"<td>{r.get('switches_max', '')}</td></tr>"
         )
     parts.append(
         "</table><h2>Cases</h2><table><tr><th class='l'>start</th><th class='l'>goal</th>"
         "<th>success %</th><th>floor %</th><th>goal</th><th>angle err (deg)</th>"
-        "<th>distance err (m)</th><th>duration ×</th><th class='l'>components</th></tr>"
+        "<th>distance err (m)</th><th>duration ×</th><th>jump ×</th><th>switches</th>"
+        "<th class='l'>components</th></tr>"
     )
     for case in result["cases"]:
         ok = "yes" if case["goal_reached"] else "<span class='fail'>no</span>"
@@ -109,6 +114,8 @@ def write_evaluation_report(
             f"<td>{ok}</td><td>{'' if angle is None else f'{angle:.2f}'}</td>"
             f"<td>{'' if dist is None else f'{dist:.4f}'}</td>"
             f"<td>{case['duration_ratio']:.2f}</td>"
+            f"<td>{case.get('command_jump_ratio', float('nan')):.1f}</td>"
+            f"<td>{case.get('switches', '')}</td>"
             f"<td class='l'>{e(' → '.join(case.get('components', [])))}</td></tr>"
         )
     parts.append("</table>")

@@ -74,16 +74,18 @@ def simple_table(results: dict[str, Any]) -> str:
     preset = results.get("preset", "default")
     lines = [
         f"| behavior | inputs | thesis's own % | SBLM % ({preset} preset) | SBLM goals | BC % "
-        "| BC goals | zero floor % | SBLM motor-max % (floor) | primitives / obs. categories |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| BC goals | zero floor % | SBLM motor-max % (floor) | primitives / obs. categories "
+        "| SBLM jump × teacher's (median / max) | SBLM switches (max) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for r in results["rows"]:
+    evaluations = results.get("evaluations") or [{}] * len(results["rows"])
+    for r, ev in zip(results["rows"], evaluations, strict=True):
         lines.append(
             f"| {r['behavior']} | {', '.join(r['inputs'])} | {r['thesis']:.1f} "
             f"| **{r['sblm']:.1f}** | {r['sblm_goal_reached']}/{r['n']} | {r['bc']:.1f} "
             f"| {r['bc_goal_reached']}/{r['n']} | {r['zero_floor']:.1f} "
             f"| {r['sblm_motor_max']:.1f} ({r['zero_floor_motor_max']:.1f}) "
-            f"| {r['primitives']} / {r['observations']} |"
+            f"| {r['primitives']} / {r['observations']} | {_smoothness(ev)} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -117,6 +119,16 @@ def write_complex_report(results: dict[str, Any], out_dir: str | os.PathLike[str
     return table
 
 
+def _smoothness(evaluation: dict[str, Any]) -> str:
+    """``jump median / max | switches max`` cells of an evaluation (blank when absent)."""
+    if "command_jump_ratio_median" not in evaluation:
+        return " | "
+    return (
+        f"{evaluation['command_jump_ratio_median']:.1f} / "
+        f"{evaluation['command_jump_ratio_max']:.1f} | {evaluation['switches_max']}"
+    )
+
+
 def complex_table(results: dict[str, Any]) -> str:
     """Markdown tables of the complex experiment (the preset named in the header)."""
     ta = results["turn_approach"]
@@ -124,12 +136,14 @@ def complex_table(results: dict[str, Any]) -> str:
     preset = results.get("preset", "default")
     lines = [
         f"| behavior | inputs | thesis's own % | CBLM % ({preset} preset) | CBLM goals | BC % "
-        "| BC goals | zero floor % | CBLM motor-max % (floor) |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| BC goals | zero floor % | CBLM motor-max % (floor) "
+        "| CBLM jump × teacher's (median / max) | CBLM component switches (max) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         f"| turn & approach | distance, angle | 79.8 | **{ta['success_rate_mean']:.1f}** "
         f"| {ta['goal_reached']}/{ta['n']} | {bc['success_rate_mean']:.1f} "
         f"| {bc['goal_reached']}/{bc['n']} | {ta['zero_floor_mean']:.1f} "
-        f"| {ta['success_rate_motor_max_mean']:.1f} ({ta['zero_floor_motor_max_mean']:.1f}) |",
+        f"| {ta['success_rate_motor_max_mean']:.1f} ({ta['zero_floor_motor_max_mean']:.1f}) "
+        f"| {_smoothness(ta)} |",
         "",
         f"| composition ({preset} preset) | success % | zero floor % | goals (need approach) "
         "| goals (need retreat) |",
