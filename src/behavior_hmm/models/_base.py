@@ -151,3 +151,10 @@ class LearnedBehavior:
         columns = [self.inputs_.index(c) for c in goal]
         latest = self.observations_.prototypes_[:, -1, :][:, columns]
         return goal_candidates(scores, self.hmm_.C_counts_, latest, window[-1, columns], limit)
+
+
+def check_rate_limit(value: Any) -> None:
+    """``command_rate_limit``: a finite number in [0, 100] (multiples of the demos' change)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    if not number or not 0.0 <= float(value) <= 100.0:
+        raise ConfigError(f"command_rate_limit must be a number in [0, 100], got {value!r}")

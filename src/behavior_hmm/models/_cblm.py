@@ -24,7 +24,7 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._base import LearnedBehavior
+from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
 from behavior_hmm.models._goals import check_goal
 from behavior_hmm.models._sblm import (
     SBLM,
@@ -81,6 +81,10 @@ class CBLM(LearnedBehavior):
     start_alternatives
         Runner-up categories of the start window tried when the best match has no
         path to the goal (thesis: 0, the goal is unreachable).
+    command_rate_limit
+        If > 0, the complex behavior's command may change per control cycle by at most
+        this multiple of the largest change in its demonstrations (``delta_scale_``,
+        rad/s), across component switches too, and it stops softly (thesis: 0).
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -111,6 +115,7 @@ class CBLM(LearnedBehavior):
         preempt_uncovered: bool = True,
         switch_cycles: int = 8,
         start_alternatives: int = 5,
+        command_rate_limit: float = 1.5,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -125,6 +130,7 @@ class CBLM(LearnedBehavior):
         self.preempt_uncovered = preempt_uncovered
         self.switch_cycles = switch_cycles
         self.start_alternatives = start_alternatives
+        self.command_rate_limit = command_rate_limit
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -136,6 +142,7 @@ class CBLM(LearnedBehavior):
         for name in ("repair", "preempt_uncovered"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
+        check_rate_limit(self.command_rate_limit)
         for name, low in (("switch_cycles", 1), ("start_alternatives", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 1000:
@@ -216,6 +223,7 @@ class CBLM(LearnedBehavior):
         self.__dict__.pop("_latest_physical", None)  # cache of category_values
         self.hmm_ = hmm
         self.command_scale_ = float(np.max(np.abs(dataset.commands))) or 1.0
+        self.delta_scale_ = _largest_step(dataset.commands, lengths)
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.default_goal_ = {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
         if not self.default_goal_:
@@ -319,6 +327,7 @@ class CBLM(LearnedBehavior):
             "observations": _cobart_params(self.observations_),
             "hmm": self.hmm_.params,
             "command_scale": self.command_scale_,
+            "delta_scale": self.delta_scale_,
             "rest_values": self.rest_values_,
             "default_goal": self.default_goal_,
             "max_steps": self.max_steps_,
@@ -391,6 +400,11 @@ class CBLM(LearnedBehavior):
         model.command_scale_ = _modelfile.check_number(
             state["command_scale"], "command_scale", positive=True
         )
+        # files written before the rate limit existed have none: no limit then
+        delta = _modelfile.check_number(state.get("delta_scale", 0.0), "delta_scale")
+        if delta < 0:
+            raise ModelFileError("delta_scale must be >= 0")
+        model.delta_scale_ = delta
         model.rest_values_ = _modelfile.check_channel_values(
             state["rest_values"], "rest_values", inputs
         )
@@ -414,6 +428,15 @@ def _model_bytes(model: Any) -> bytes:
         path = Path(tmp) / "component.bhmm"
         model.save(path)
         return path.read_bytes()
+
+
+def _largest_step(commands: np.ndarray, lengths: np.ndarray) -> float:
+    """Largest change of either command within one cycle of an episode (rad/s)."""
+    steps = np.abs(np.diff(np.asarray(commands, dtype=np.float64), axis=0))
+    same_episode = np.ones(len(steps), dtype=bool)
+    same_episode[np.cumsum(lengths)[:-1] - 1] = False
+    inside = steps[same_episode]
+    return float(inside.max()) if inside.size else 0.0
 
 
 def _effects(

@@ -110,6 +110,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "5 hidden units for any input set (thesis: 5/10/15 for 1/2/3 channels)",
     ),
     Departure(
+        "command_rate_limit",
+        {"SBLM": {"command_rate_limit": 0.0}, "CBLM": {"command_rate_limit": 0.0}},
+        "command change per cycle at most 1.5 × the demonstrations' largest; soft stop",
+    ),
+    Departure(
         "path_self_loops",
         {"SBLM": {"path_self_loops": "keep"}, "CBLM": {"path_self_loops": "keep"}},
         "plan on c_ij / (1 − c_ii), the next different category (thesis: −log c_ij)",

@@ -24,7 +24,7 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._base import LearnedBehavior
+from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
 from behavior_hmm.models._goals import (
     TOLERANCES,
     check_goal,
@@ -171,6 +171,12 @@ class SBLM(LearnedBehavior):
         do not set ``dcm_scale``). A channel that barely moves in the demonstrations
         (the angle while approaching: 3e-5 per step) otherwise gets a DCM so sensitive
         that noise splits the categories.
+    command_rate_limit
+        If > 0, the command may change per control cycle by at most this multiple of
+        the largest change per cycle in the demonstrations (``delta_scale_``), and at
+        the goal it ramps to zero at that rate before the run ends (a soft stop). The
+        teacher is jerk-limited; without it the robot jolts at every primitive switch
+        (turn: 6.7× the teacher's largest change; approach 24×). 0 disables it (thesis).
     counting, smoothing, path_self_loops
         Behavior-HMM estimation options (see :class:`~behavior_hmm.hmm.BehaviorHMM`).
     random_state
@@ -221,6 +227,7 @@ class SBLM(LearnedBehavior):
         segment_margin: int = 10,
         stop_at_rest: bool = True,
         dcm_floor: float = 0.3,
+        command_rate_limit: float = 1.5,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -244,6 +251,7 @@ class SBLM(LearnedBehavior):
         self.segment_margin = segment_margin
         self.stop_at_rest = stop_at_rest
         self.dcm_floor = dcm_floor
+        self.command_rate_limit = command_rate_limit
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
@@ -260,6 +268,7 @@ class SBLM(LearnedBehavior):
         size = self.batch_size
         if isinstance(size, bool) or not isinstance(size, int) or size < 1:
             raise ConfigError(f"batch_size must be an integer >= 1, got {size!r}")
+        check_rate_limit(self.command_rate_limit)
 
     def _checked_inputs(self) -> tuple[str, ...]:
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)

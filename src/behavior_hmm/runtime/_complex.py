@@ -13,6 +13,7 @@ from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.models._goals import within_tolerance
 from behavior_hmm.runtime._simple import (
     GoalTracking,
+    RateLimited,
     StepOutput,
     make_controller,
     retarget,
@@ -23,7 +24,7 @@ FloatArray = NDArray[np.float64]
 _ZERO = np.zeros(2)
 
 
-class ComplexController(GoalTracking):
+class ComplexController(GoalTracking, RateLimited):
     """Runs a CBLM: plans over its own observation categories, delegates to components.
 
     Each cycle it categorizes the current observation window with its own CobART,
@@ -71,6 +72,14 @@ class ComplexController(GoalTracking):
         self._may_preempt = bool(model.preempt_uncovered)
         self._switch_cycles = int(model.switch_cycles)
         self._alternatives = int(model.start_alternatives)
+        # one controller per component, built now (before any motion) and renewed with
+        # each intermediate goal: building one takes ~0.5 ms, too long inside a cycle
+        self._children: dict[int, Any] = {
+            k: make_controller(component, None, name=model.names_[k])
+            for k, component in enumerate(model.components_)
+        }
+        rate = float(getattr(model, "command_rate_limit", 0.0))
+        self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
         self.reset()
 
     def reset(self) -> None:
@@ -85,6 +94,7 @@ class ComplexController(GoalTracking):
         self._handed_back = False
         self._insist, self._wanted = 0, -1
         self._committed = False
+        self._limit_reset()
 
     def _plannable(self, category: int) -> int:
         """``category``, or the next-best match of the current window a plan can start from.
@@ -119,7 +129,16 @@ class ComplexController(GoalTracking):
         return values
 
     def step(self, reading: FloatArray) -> StepOutput:
-        """Decide the command for one reading (physical units, SENSOR_CHANNELS order)."""
+        """Decide the command for one reading (physical units, SENSOR_CHANNELS order).
+
+        The model's ``command_rate_limit`` bounds the change per cycle, across component
+        switches too (a new component continues from the running command).
+        """
+        if self._stopping is not None:  # ramping down at the goal
+            return self._limited(self._stopping)
+        return self._limited(self._decide(reading))
+
+    def _decide(self, reading: FloatArray) -> StepOutput:
         x = self._pipe.step(reading[self._idx])
         category, novel, _ = self._live.update(x)
         if category != self._reachable_from:
@@ -179,6 +198,8 @@ class ComplexController(GoalTracking):
                 return self._run_child(reading, category, novel, changed=False)
         self._insist, self._wanted = 0, -1
         self._committed = False
+        if segment.state == self._active:  # carry on (an intermediate goal is only
+            return self._run_child(reading, category, novel, changed=False)  # for a new one)
         sub_goal = self.model.component_goal(
             segment.state,
             segment.exit_observation,
@@ -264,11 +285,11 @@ class ComplexController(GoalTracking):
     ) -> StepOutput:
         changed = comp != self._active or renew
         if changed:
-            component = self.model.components_[comp]
-            self._child = make_controller(
-                component, sub_goal, name=self.model.names_[comp], tolerance=tolerance
-            )
+            child = self._children[comp]
+            child._renew(sub_goal, tolerance)  # as a new controller, without building one
+            self._child = child
             self._child.reset()
+            self._child.carry(self._last)
             self._active = comp
         return self._run_child(reading, category, novel, changed)
 

@@ -33,17 +33,29 @@ class StepOutput(NamedTuple):
 class GoalTracking:
     """The goal part of a controller: goal, goal categories, stop set (see retarget)."""
 
+    model: Any
     goal: dict[str, float]
     goal_category: int
+    _tolerance: float
     _goal_candidates: NDArray[np.int64]
     _goal_set: frozenset[int]
     _stop_set: frozenset[int]
     _reachable_from: int
 
     def _set_goal(self, model: Any, goal: Mapping[str, float] | None) -> None:
-        """Resolve the goal and its categories; build their planning trees before motion."""
+        """Resolve the goal and its categories; build their planning trees before motion.
+
+        The candidates of each goal are kept (a renewed component controller gets the
+        same intermediate goals again and again; they depend on the model alone).
+        """
         self.goal = model.resolve_goal(goal)
-        self._goal_candidates = model.goal_categories(self.goal)
+        memo: dict[tuple[tuple[str, float], ...], NDArray[np.int64]]
+        memo = self.__dict__.setdefault("_goal_memo", {})
+        key = tuple(self.goal.items())
+        candidates = memo.get(key)
+        if candidates is None:
+            candidates = memo[key] = model.goal_categories(self.goal)
+        self._goal_candidates = candidates
         self.goal_category = int(self._goal_candidates[0])
         self._goal_set = frozenset(int(k) for k in self._goal_candidates)
         model.hmm_.prepare_goals(self._goal_candidates)
@@ -51,8 +63,58 @@ class GoalTracking:
         self._stop_set = frozenset({self.goal_category})
         self._reachable_from = -1
 
+    def _renew(self, goal: Mapping[str, float] | None, tolerance: float) -> None:
+        """Aim at a new goal with the state a new controller would have after ``reset()``.
 
-class SimpleController(GoalTracking):
+        A complex controller keeps one controller per component and renews it instead of
+        building a new one (CobART streams, filters, buffers) inside a control cycle;
+        the caller calls :meth:`reset` next, as it would on a new controller.
+        """
+        self._tolerance = float(tolerance)
+        self._set_goal(self.model, goal)
+
+
+class RateLimited:
+    """Limits how fast a controller's command changes, and stops it softly.
+
+    With a rate ``r`` (rad/s per control period, > 0), each cycle's command moves from
+    the last one by at most ``r`` per wheel; when the behavior is done, the command
+    ramps to zero at the same rate before the run reports done (the demonstrations
+    end at rest without a jolt). ``r = 0`` passes commands through (thesis).
+    """
+
+    _rate: float
+    _last: FloatArray
+    _stopping: StepOutput | None
+    _label: str
+
+    def _limit_reset(self) -> None:
+        self._last = np.zeros(2)
+        self._stopping = None
+        self._label = ""
+
+    def carry(self, command: FloatArray) -> None:
+        """Continue from ``command`` (rad/s): a complex behavior's switch does not jolt."""
+        self._last = np.array(command, dtype=np.float64)
+
+    def _limited(self, out: StepOutput) -> StepOutput:
+        if self._rate <= 0.0:
+            self._last = out.command
+            return out
+        if out.done and self._stopping is None:
+            # the ramp down still finishes the last component's motion: keep its name
+            self._stopping = out._replace(component=out.component or self._label)
+        elif not out.done:
+            self._label = out.component
+        target = _ZERO if self._stopping is not None else out.command
+        u = self._last + np.clip(target - self._last, -self._rate, self._rate)
+        self._last = u
+        if self._stopping is not None:
+            return self._stopping._replace(command=u, done=not np.any(u))
+        return out._replace(command=u)
+
+
+class SimpleController(GoalTracking, RateLimited):
     """Runs an SBLM toward a goal one 16 ms reading at a time.
 
     Each cycle: filter and normalize the reading exactly as in training, categorize
@@ -122,6 +184,9 @@ class SimpleController(GoalTracking):
         self._last_obs = -1
         self._alpha = self._log_pi.copy()
         self._prior = self._log_pi
+        rate = float(getattr(model, "command_rate_limit", 0.0))
+        self._rate = rate * float(model.delta_scale_) * float(model.command_scale_)
+        self._limit_reset()
 
     def reset(self) -> None:
         """Forget the previous run (filters, windows, plan, efference copy)."""
@@ -135,6 +200,7 @@ class SimpleController(GoalTracking):
         self._prior = self._log_pi
         self._feat[:] = 0.0
         self._k = 0
+        self._limit_reset()
 
     def check_reachable(self, reading: FloatArray) -> None:
         """Raise UnreachableGoalError if no plan leads from ``reading`` to the goal."""
@@ -142,7 +208,15 @@ class SimpleController(GoalTracking):
         probe.step(reading)
 
     def step(self, reading: FloatArray) -> StepOutput:
-        """Decide the command for one reading (physical units, SENSOR_CHANNELS order)."""
+        """Decide the command for one reading (physical units, SENSOR_CHANNELS order).
+
+        The model's ``command_rate_limit`` bounds the change per cycle (see RateLimited).
+        """
+        if self._stopping is not None:  # ramping down at the goal
+            return self._limited(self._stopping)
+        return self._limited(self._decide(reading))
+
+    def _decide(self, reading: FloatArray) -> StepOutput:
         x = self._pipe.step(reading[self._idx])
         if not self._started:
             self._buf[:] = x[:, None]
@@ -254,15 +328,22 @@ def retarget(
     controller._reachable_from = category
     if most_likely:
         # among the goal candidates, the one the most likely observation path leads to
-        # (the branch the robot is on), the best match first among equals
-        best, best_lp = -1, -np.inf
-        for candidate in controller._goal_candidates:
+        # (the branch the robot is on), the best match first among equals; path
+        # probabilities come from the cached goal trees, and only the winner (or the
+        # next ones, if its states cannot be decoded) is planned in full
+        ranked = sorted(
+            (-lp, order, int(candidate))
+            for order, candidate in enumerate(controller._goal_candidates.tolist())
+            if (lp := hmm.path_log_prob(category, candidate)) > -np.inf
+        )
+        best = -1
+        for _, _, candidate in ranked:
             try:
-                lp = hmm.plan(category, int(candidate)).path_log_prob
+                hmm.plan(category, candidate)
             except UnreachableGoalError:
                 continue
-            if lp > best_lp:
-                best, best_lp = int(candidate), lp
+            best = candidate
+            break
         if best >= 0:
             if best != controller.goal_category:
                 controller.goal_category = best
