@@ -221,60 +221,6 @@ def collect(
     typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
 
 
-@app.command("import-csv")
-@_user_errors
-def import_csv(
-    csv_file: Annotated[Path, typer.Argument(help="Your CSV log")],
-    out: Annotated[Path, typer.Option("-o", "--out", help="Output Parquet file")],
-    map_: Annotated[
-        list[str] | None,
-        typer.Option("--map", help="OURS=THEIRS column mapping, e.g. angle=heading (repeatable)"),
-    ] = None,
-    unit: Annotated[
-        list[str] | None,
-        typer.Option(help="CHANNEL=UNIT of your columns, e.g. angle=rad, distance=mm (repeatable)"),
-    ] = None,
-    drop: Annotated[
-        list[str] | None,
-        typer.Option(help="A column of your file to ignore (repeatable)"),
-    ] = None,
-    split_on_time_reset: Annotated[
-        bool,
-        typer.Option(
-            "--split-on-time-reset",
-            help="Without an episode column: start a new episode wherever time drops",
-        ),
-    ] = False,
-    delimiter: Annotated[str, typer.Option(help="Cell separator, e.g. ';' or 'tab'")] = ",",
-    behavior: Annotated[str | None, typer.Option(help="Behavior name stored in metadata")] = None,
-) -> None:
-    """Convert a CSV log into a validated dataset (same checks as Parquet)."""
-    from behavior_hmm import data
-
-    mapping = _pairs(map_ or [], "--map")
-    units = _pairs(unit or [], "--unit")
-    sep = "\t" if delimiter in ("tab", "\\t") else delimiter
-    if len(sep) != 1:
-        raise ConfigError(f"--delimiter must be one character or 'tab', got '{delimiter}'")
-    from behavior_hmm._paths import check_outputs
-
-    check_outputs({"CSV_FILE": csv_file}, {"-o": out})
-    metadata: dict[str, Any] = {}
-    if behavior is not None:
-        metadata["behavior"] = behavior
-    dataset = data.import_csv(
-        csv_file,
-        mapping=mapping,
-        units=units,
-        drop=drop or (),
-        metadata=metadata,
-        split_on_time_reset=split_on_time_reset,
-        delimiter=sep,
-    )
-    data.write(dataset, out)
-    typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
-
-
 @app.command()
 @_user_errors
 def inspect(
@@ -532,22 +478,12 @@ def _full_start(behavior: str, start: dict[str, float]) -> dict[str, float]:
     return {k: v for k, v in complete_start(behavior, start).items() if not k.startswith("goal")}
 
 
-def _pairs(items: list[str], option: str) -> dict[str, str]:
-    pairs: dict[str, str] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip() or not value.strip():
-            raise ConfigError(f"{option} expects KEY=VALUE, got '{item}'")
-        if key.strip() in pairs:
-            raise ConfigError(f"{option} gives '{key.strip()}' twice")
-        pairs[key.strip()] = value.strip()
-    return pairs
-
-
 def _register_learning_commands() -> None:
+    from behavior_hmm import _cli_data
     from behavior_hmm._cli_learn import register
 
     register(app, _user_errors, _progress)
+    _cli_data.register(app, _user_errors)
 
 
 _register_learning_commands()

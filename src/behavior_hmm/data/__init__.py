@@ -3,10 +3,13 @@
 A :class:`Dataset` holds all demonstrations of a behavior as column arrays plus
 ``lengths`` (hmmlearn style) and JSON metadata; it is validated on construction.
 :func:`read` / :func:`write` handle the Parquet format, :func:`import_csv` users'
-own logs. :class:`SignalPipeline` filters and normalizes channels identically
-for training (offline) and at run time (online, one sample at a time).
+own logs, :func:`import_bags` ROS 1 / ROS 2 bags, :func:`import_lerobot` and
+:func:`export_lerobot` LeRobot datasets (v3.0 layout). :class:`SignalPipeline`
+filters and normalizes channels identically for training (offline) and at run time
+(online, one sample at a time).
 """
 
+from behavior_hmm.data._bags import import_bags
 from behavior_hmm.data._channels import (
     ANGLE_TOLERANCE_DEG,
     ARENA_MAX_DISTANCE,
@@ -28,9 +31,17 @@ from behavior_hmm.data._filter import (
     OnlinePipeline,
     SignalPipeline,
 )
+from behavior_hmm.data._lerobot import export_lerobot, import_lerobot
 from behavior_hmm.data._normalize import CommandScaler, Normalizer
 from behavior_hmm.data._parquet import METADATA_KEY, read, write
 from behavior_hmm.data._summary import summarize
+from behavior_hmm.data._transform import (
+    DERIVABLE,
+    DataImportWarning,
+    SamplingWarning,
+    derive_velocities,
+    resample,
+)
 from behavior_hmm.data._units import UNIT_FACTORS, wrap_degrees
 from behavior_hmm.data._validate import (
     BEHAVIOR_NAME_PATTERN,
@@ -49,6 +60,7 @@ __all__ = [
     "COMMAND_CHANNELS",
     "CONTROL_PERIOD",
     "DEFAULT_CUTOFF_HZ",
+    "DERIVABLE",
     "DISTANCE_TOLERANCE_M",
     "METADATA_KEY",
     "NUMERIC_CHANNELS",
@@ -61,16 +73,23 @@ __all__ = [
     "UNIT_FACTORS",
     "VALUE_BOUNDS",
     "CommandScaler",
+    "DataImportWarning",
     "Dataset",
     "Episode",
     "LowPassFilter",
     "Normalizer",
     "OnlineFilter",
     "OnlinePipeline",
+    "SamplingWarning",
     "SignalPipeline",
+    "derive_velocities",
+    "export_lerobot",
+    "import_bags",
     "import_csv",
+    "import_lerobot",
     "noise_std",
     "read",
+    "resample",
     "summarize",
     "validate",
     "wrap_degrees",
