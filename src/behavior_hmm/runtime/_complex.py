@@ -80,6 +80,7 @@ class ComplexController(GoalTracking, RateLimited):
         }
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
+        self._limit_motion = False  # the components limit their own commands
         self.reset()
 
     def reset(self) -> None:
@@ -131,8 +132,9 @@ class ComplexController(GoalTracking, RateLimited):
     def step(self, reading: FloatArray) -> StepOutput:
         """Decide the command for one reading (physical units, SENSOR_CHANNELS order).
 
-        The model's ``command_rate_limit`` bounds the change per cycle, across component
-        switches too (a new component continues from the running command).
+        With the model's ``command_rate_limit`` a new component continues from the
+        running command (each component limits its own change per cycle), and the
+        complex behavior stops softly when it is slow at its goal.
         """
         if self._stopping is not None:  # ramping down at the goal
             return self._limited(self._stopping)

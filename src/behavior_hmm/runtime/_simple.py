@@ -74,16 +74,26 @@ class GoalTracking:
         self._set_goal(self.model, goal)
 
 
+#: A soft stop at the goal takes at most this many control cycles; a robot moving faster
+#: than that when its goal is reached (an intermediate goal that its demonstrations
+#: passed at speed) is stopped at once: reaching the goal comes before smoothness.
+SOFT_STOP_CYCLES = 4
+
+
 class RateLimited:
     """Limits how fast a controller's command changes, and stops it softly.
 
     With a rate ``r`` (rad/s per control period, > 0), each cycle's command moves from
-    the last one by at most ``r`` per wheel; when the behavior is done, the command
-    ramps to zero at the same rate before the run reports done (the demonstrations
-    end at rest without a jolt). ``r = 0`` passes commands through (thesis).
+    the last one by at most ``r`` per wheel (``_limit_motion``; a complex controller
+    leaves that to its components, which continue from its running command). When the
+    behavior is done and the command is small (within ``SOFT_STOP_CYCLES`` cycles of
+    zero), it ramps to zero at that rate before the run reports done, as the
+    demonstrations end at rest without a jolt; faster, it stops at once. ``r = 0``
+    passes commands through (thesis).
     """
 
     _rate: float
+    _limit_motion: bool
     _last: FloatArray
     _stopping: StepOutput | None
     _label: str
@@ -102,15 +112,21 @@ class RateLimited:
             self._last = out.command
             return out
         if out.done and self._stopping is None:
+            if float(np.max(np.abs(self._last))) > SOFT_STOP_CYCLES * self._rate:
+                self._last = np.zeros(2)
+                return out  # moving fast at the goal: stop now
             # the ramp down still finishes the last component's motion: keep its name
             self._stopping = out._replace(component=out.component or self._label)
         elif not out.done:
             self._label = out.component
-        target = _ZERO if self._stopping is not None else out.command
-        u = self._last + np.clip(target - self._last, -self._rate, self._rate)
-        self._last = u
         if self._stopping is not None:
+            u = self._last + np.clip(-self._last, -self._rate, self._rate)
+            self._last = u
             return self._stopping._replace(command=u, done=not np.any(u))
+        u = out.command
+        if self._limit_motion:
+            u = self._last + np.clip(u - self._last, -self._rate, self._rate)
+        self._last = u
         return out._replace(command=u)
 
 
@@ -186,6 +202,7 @@ class SimpleController(GoalTracking, RateLimited):
         self._prior = self._log_pi
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(model.delta_scale_) * float(model.command_scale_)
+        self._limit_motion = True
         self._limit_reset()
 
     def reset(self) -> None:
@@ -329,35 +346,22 @@ def retarget(
     if most_likely:
         # among the goal candidates, the one the most likely observation path leads to
         # (the branch the robot is on), the best match first among equals; path
-        # probabilities come from the cached goal trees, and only the winner (or the
-        # next ones, if its states cannot be decoded) is planned in full
+        # probabilities come from the cached goal trees, and no plan is built
         ranked = sorted(
             (-lp, order, int(candidate))
             for order, candidate in enumerate(controller._goal_candidates.tolist())
             if (lp := hmm.path_log_prob(category, candidate)) > -np.inf
         )
-        best = -1
-        for _, _, candidate in ranked:
-            try:
-                hmm.plan(category, candidate)
-            except UnreachableGoalError:
-                continue
-            best = candidate
-            break
+        best = next((c for _, _, c in ranked if hmm.can_plan(category, c)), -1)
         if best >= 0:
             if best != controller.goal_category:
                 controller.goal_category = best
                 controller._stop_set = controller._goal_set
             return
-    try:
-        hmm.plan(category, controller.goal_category)
+    if hmm.can_plan(category, controller.goal_category):
         return
-    except UnreachableGoalError:
-        pass
     for candidate in controller._goal_candidates:
-        try:
-            hmm.plan(category, int(candidate))
-        except UnreachableGoalError:
+        if not hmm.can_plan(category, int(candidate)):
             continue
         controller.goal_category = int(candidate)
         # an intermediate goal: any category describing the goal place ends the run
