@@ -1,17 +1,23 @@
-"""Training times: the turn SBLM, the approach SBLM, and the turn & approach CBLM.
+"""Training times: the turn SBLM, the approach SBLM, the turn & approach CBLM, and a curve.
 
-The dataset is collected once (not timed); each repeat fits a fresh model with the same
-seed, so every repeat does identical work.
+The datasets are collected once (not timed); each repeat fits a fresh model with the same
+seed, so every repeat does identical work. ``demonstrations_curve`` times the turn SBLM
+trained on ×1, ×2, ×4 and ×8 the default grid of demonstrations (the same angle range
+sampled k times as densely, collected on the kinematic simulator), one fit per point.
 """
 
 from __future__ import annotations
 
 import time
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from benchmarks._common import default_dataset
+
+#: Multiples of the default turn grid in the curve.
+CURVE_FACTORS = (1, 2, 4, 8)
 
 
 def _median_time(fit: Any, repeats: int) -> float:
@@ -21,6 +27,41 @@ def _median_time(fit: Any, repeats: int) -> float:
         fit()
         times.append(time.perf_counter() - t0)
     return float(np.median(times))
+
+
+@lru_cache(maxsize=8)
+def dense_turn_dataset(factor: int) -> Any:
+    """Turn demonstrations from ``factor`` × the default grid's starts (kinematic)."""
+    from behavior_hmm.teach import collect, default_starts
+
+    grid = default_starts("turn")  # every 10 deg at one distance, 0 excluded
+    distance = grid[0]["distance"]
+    step = 10.0 / factor
+    angles = [-180.0 + step * i for i in range(round(360.0 / step) + 1)]
+    starts = [{"angle": a, "distance": distance} for a in angles if abs(a) > 1e-9]
+    return collect("turn", starts, sim="kinematic", seed=0)
+
+
+def demonstrations_curve(factors: tuple[int, ...] = CURVE_FACTORS) -> list[dict[str, Any]]:
+    """Training time of the turn SBLM against the number of demonstrations."""
+    from behavior_hmm.models import SBLM
+
+    rows = []
+    for factor in factors:
+        data = dense_turn_dataset(factor)
+        t0 = time.perf_counter()
+        model = SBLM(inputs=("angle",)).fit(data)
+        rows.append(
+            {
+                "grid_factor": factor,
+                "demonstrations": len(data.lengths),
+                "samples": int(data.n_samples),
+                "train_s": time.perf_counter() - t0,
+                "primitives": int(model.hmm_.n_states_),
+                "observation_categories": int(model.hmm_.n_observations_),
+            }
+        )
+    return rows
 
 
 def run(quick: bool = False) -> dict[str, Any]:
@@ -47,6 +88,9 @@ def run(quick: bool = False) -> dict[str, Any]:
         lambda: CBLM(components, inputs=("distance", "angle")).fit(complex_data), repeats
     )
     results["complex_samples"] = int(complex_data.n_samples)
+    results["demonstrations_curve"] = demonstrations_curve(
+        CURVE_FACTORS[:2] if quick else CURVE_FACTORS
+    )
     return results
 
 

@@ -369,7 +369,12 @@ def _fmt(value: Any) -> str:
 @app.command()
 @_user_errors
 def bench(
-    name: Annotated[str, typer.Argument(help="Benchmark name, e.g. sim or cobart")],
+    name: Annotated[
+        str,
+        typer.Argument(
+            help="Benchmark: sim, cobart, step, train or hmm (hmm needs the bench extra: hmmlearn)"
+        ),
+    ],
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON")] = None,
     quick: Annotated[bool, typer.Option("--quick", help="Fewer repeats (a smoke run)")] = False,
 ) -> None:

@@ -303,6 +303,19 @@ class BehaviorHMM:
             )
         return walk(tree, current), 0.0 - cost
 
+    def path_log_prob(self, o_current: Category, o_goal: Category) -> float:
+        """Log probability of the most likely observation path, ``-inf`` if there is none.
+
+        The same number as ``plan(o_current, o_goal).path_log_prob``, read off the goal's
+        cached shortest-path tree without walking the path or decoding states (what a
+        controller needs to compare several candidate goals in one control cycle).
+        """
+        self._check_fitted()
+        self._sync_caches()
+        c = self._check_observation(o_current, "o_current")
+        g = self._check_observation(o_goal, "o_goal")
+        return 0.0 - float(self._tree(g).cost[c])
+
     def most_likely_path(self, o_current: Category, o_goal: Category) -> tuple[int, ...]:
         """Most likely observation path from ``o_current`` to ``o_goal`` (both included).
 
@@ -418,12 +431,7 @@ class BehaviorHMM:
         c = self._check_observation(o_current, "o_current")
         g = self._check_observation(o_goal, "o_goal")
         path, path_log_prob = self._path(c, g)
-        decoder = self._decoders.get(g)
-        if decoder is None:
-            tree = self._trees[g]
-            decoder = TreeViterbi(tree.next_node, g, self.log_pi_, self.log_A_, self.log_B_)
-            self._decoders[g] = decoder
-        state_list, log_prob = decoder.decode(path)
+        state_list, log_prob = self._decoder(g).decode(path)
         decoding: Literal["viterbi", "emissions"] = "viterbi"
         if not state_list:  # impossible: the forward pass explains where, or falls back
             states_arr, log_prob, decoding = self._decode(
@@ -469,9 +477,53 @@ class BehaviorHMM:
         UnreachableGoalError
             The goal cannot be reached from ``o_current``.
         """
-        plan = self.plan(o_current, o_goal)  # validates, raises if unreachable, warms caches
-        decoder = self._decoders[plan.goal]
-        return decoder._message(plan.observations[0])
+        self._check_fitted()
+        self._sync_caches()
+        c = self._check_observation(o_current, "o_current")
+        g = self._check_observation(o_goal, "o_goal")
+        if not self._decodable(c, g):
+            self.plan(c, g)  # raises (unreachable, or no state sequence) or falls back
+        return self._decoder(g)._message(c)
+
+    def can_plan(self, o_current: Category, o_goal: Category) -> bool:
+        """Whether :meth:`plan` succeeds from ``o_current`` to ``o_goal``.
+
+        The usual case (reachable, and decodable under A) is read off the cached goal
+        tree and Viterbi messages without building the plan; a controller asks this on
+        every change of category, and a plan's path can be hundreds of categories long.
+        """
+        self._check_fitted()
+        self._sync_caches()
+        c = self._check_observation(o_current, "o_current")
+        g = self._check_observation(o_goal, "o_goal")
+        if self._decodable(c, g):
+            return True
+        if self.on_impossible == "raise":  # plan would raise: unreachable or undecodable
+            return False
+        try:
+            self.plan(c, g)  # the emission fallback may still give a plan
+        except UnreachableGoalError:
+            return False
+        return True
+
+    def _decoder(self, goal: int) -> TreeViterbi:
+        decoder = self._decoders.get(goal)
+        if decoder is None:
+            tree = self._tree(goal)
+            decoder = TreeViterbi(tree.next_node, goal, self.log_pi_, self.log_A_, self.log_B_)
+            self._decoders[goal] = decoder
+        return decoder
+
+    def _decodable(self, current: int, goal: int) -> bool:
+        """The goal is reachable and some state sequence explains the path (π, A, B).
+
+        Exactly when ``plan`` finds a Viterbi decoding (``TreeViterbi.decode``: the best
+        start score ``max(log π + V_current)`` is finite).
+        """
+        if not np.isfinite(self._tree(goal).cost[current]):
+            return False
+        message = self._decoder(goal)._message(current)
+        return bool(np.isfinite(np.max(self.log_pi_ + message)))
 
     # ------------------------------------------------------------ persistence
     def to_arrays(self) -> dict[str, NDArray[Any]]:

@@ -5,6 +5,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+#: Rows of the (rows, N) score buffer in one block: the block of scores stays in the cache
+#: between the add and the argmax (≈ 256 KB); small models use one block of N rows.
+_BLOCK_ELEMENTS = 32_768
+#: Models with at most this many transitions (N²) score all states in one block.
+_ONE_BLOCK_MAX = 131_072
+
 
 def viterbi_log(
     log_pi: NDArray[np.float64],
@@ -31,29 +37,94 @@ def viterbi_log(
         ``log P(states, observations)``; ``-inf`` when every sequence is impossible.
     dead_at : int
         First position where every state became impossible, or -1.
+
+    Notes
+    -----
+    Each step is one (N, N) add of the previous scores to the transposed transitions
+    (``scores[j, i] = log a_ij + delta_i``), one argmax per row (ties go to the lowest
+    predecessor, as in hmmlearn), and a gather of the winning scores plus the emissions,
+    all written into buffers allocated once. The sums are formed in the same order as
+    hmmlearn's compiled Viterbi (``delta_i + log a_ij``, then ``+ log b_j``), so both give
+    the same path and the same log probability. A large model scores the states in
+    blocks of rows so that each block stays in the cache.
     """
     n = log_pi.shape[0]
     t_len = observations.shape[0]
-    log_bt = np.ascontiguousarray(log_B.T)  # row o = log b_j(o) for all j
-    psi = np.zeros((t_len, n), dtype=np.int32)
-    delta = log_pi + log_bt[observations[0]]
-    if not np.isfinite(delta.max()):
+    emit = np.ascontiguousarray(log_B.T)[observations]  # row t = log b_j(o_t) for all j
+    lattice = np.empty((t_len, n))
+    np.add(log_pi, emit[0], out=lattice[0])
+    if not np.isfinite(lattice[0].max()):
         return np.zeros(t_len, dtype=np.int64), float("-inf"), 0
-    cols = np.arange(n)
-    for t in range(1, t_len):
-        # scores[i, j] = delta_{t-1}(i) + log a_ij ; best predecessor of each j
-        scores = delta[:, None] + log_A
-        best = scores.argmax(axis=0)
-        psi[t] = best
-        delta = scores[best, cols] + log_bt[observations[t]]
-        if not np.isfinite(delta.max()):
-            return np.zeros(t_len, dtype=np.int64), float("-inf"), t
+    psi = np.empty((t_len, n), dtype=np.intp)
+    if t_len > 1:
+        _forward(np.ascontiguousarray(log_A.T), emit, lattice, psi)
+    # Once every state is impossible, every later one is too (-inf only propagates).
+    alive = np.isfinite(lattice.max(axis=1))
+    if not alive[-1]:
+        return np.zeros(t_len, dtype=np.int64), float("-inf"), int(np.argmin(alive))
     states = np.empty(t_len, dtype=np.int64)
-    states[-1] = int(delta.argmax())
-    log_prob = float(delta[states[-1]])
+    state = int(lattice[-1].argmax())
+    log_prob = float(lattice[-1, state])
+    item = psi.item
     for t in range(t_len - 1, 0, -1):
-        states[t - 1] = psi[t, states[t]]
+        states[t] = state
+        state = item(t, state)
+    states[0] = state
     return states, log_prob, -1
+
+
+def _forward(
+    log_at: NDArray[np.float64],
+    emit: NDArray[np.float64],
+    lattice: NDArray[np.float64],
+    psi: NDArray[np.intp],
+) -> None:
+    """Fill ``lattice[1:]`` (best log scores) and ``psi[1:]`` (best predecessors) in place.
+
+    ``log_at`` is the transposed log transition table (row j = log a_·j), ``emit[t]`` the
+    log emissions of observation t, ``lattice[0]`` the start scores.
+    """
+    n = log_at.shape[0]
+    rows = n if n * n <= _ONE_BLOCK_MAX else max(16, _BLOCK_ELEMENTS // n)
+    buf = np.empty((rows, n))
+    offsets = np.arange(0, rows * n, n, dtype=np.intp)  # flat index of each row's start
+    flat_index = np.empty(rows, dtype=np.intp)
+    add = np.add
+    steps = zip(psi[1:], lattice[1:], emit[1:], strict=True)
+    prev = lattice[0]
+    if rows == n:
+        take, argmax = buf.reshape(-1).take, buf.argmax
+        for best, cur, e in steps:
+            add(log_at, prev, buf)  # buf[j, i] = delta_i + log a_ij
+            argmax(1, best)
+            add(best, offsets, flat_index)
+            take(flat_index, None, cur, "wrap")  # indices are in range: no checked copy
+            add(cur, e, cur)
+            prev = cur
+        return
+    blocks = []
+    for start in range(0, n, rows):
+        stop = min(start + rows, n)
+        block = buf[: stop - start]
+        blocks.append(
+            (
+                log_at[start:stop],
+                block,
+                block.reshape(-1).take,
+                slice(start, stop),
+                offsets[: stop - start],
+                flat_index[: stop - start],
+            )
+        )
+    for best, cur, e in steps:
+        for at, block, take, rows_of, offs, index in blocks:
+            block_best = best[rows_of]
+            add(at, prev, block)
+            block.argmax(1, block_best)
+            add(block_best, offs, index)
+            take(index, None, cur[rows_of], "wrap")
+        add(cur, e, cur)
+        prev = cur
 
 
 def emission_decode(

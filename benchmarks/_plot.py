@@ -1,0 +1,133 @@
+"""Plots of the scaling curves for docs/performance.md, from the benchmarks' JSON.
+
+``python -m benchmarks._plot --step step.json --train train.json --hmm hmm.json -o DIR``
+writes ``step_scaling.png`` (control step against observation categories and against
+primitives), ``train_curve.png`` (training time against demonstrations) and
+``viterbi.png`` (ours against hmmlearn), for the files given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+
+def _load(path: str | None) -> dict[str, Any] | None:
+    return None if path is None else json.loads(Path(path).read_text(encoding="utf-8"))
+
+
+def plot_step(results: dict[str, Any], out: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    rows = results["scaling"]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    for ax, varied, key, label in (
+        (axes[0], "observations", "observation_categories", "observation categories"),
+        (axes[1], "primitives", "primitives", "primitives (motion generators)"),
+    ):
+        sel = sorted((r for r in rows if r["varied"] == varied), key=lambda r: r[key])
+        base = {"observation_categories": results["observation_categories"]}
+        base["primitives"] = results["primitives"]
+        if varied == "primitives":  # the default model is the curve's first point
+            sel = [
+                {
+                    "primitives": results["primitives"],
+                    "step_us_median": results["step_us_median"],
+                    "step_us_p99": results["step_us_p99"],
+                },
+                *sel,
+            ]
+        x = [r[key] for r in sel]
+        ax.plot(x, [r["step_us_median"] for r in sel], "o-", label="median")
+        ax.plot(x, [r["step_us_p99"] for r in sel], "s--", label="99th percentile")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        other = "primitives" if varied == "observations" else "observation categories"
+        fixed = base["primitives"] if varied == "observations" else base["observation_categories"]
+        ax.set_title(f"{label}; {other} ≈ {fixed}", fontsize=10)
+    axes[0].set_ylabel("control step, µs (wall clock)")
+    axes[0].axhline(1000, color="red", lw=0.8, ls=":")
+    axes[0].text(120, 1080, "1 ms: p99 target at 5,000 categories", color="red", fontsize=8)
+    axes[1].legend(loc="upper left")
+    fig.suptitle("SBLM control step (turn, kinematic robot, 15 test starts)", fontsize=11)
+    fig.tight_layout()
+    path = out / "step_scaling.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_train(results: dict[str, Any], out: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    rows = results["demonstrations_curve"]
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    x = [r["demonstrations"] for r in rows]
+    ax.plot(x, [r["train_s"] for r in rows], "o-")
+    for r in rows:
+        ax.annotate(
+            f"×{r['grid_factor']}, {r['samples'] // 1000}k rows",
+            (r["demonstrations"], r["train_s"]),
+            textcoords="offset points",
+            xytext=(4, -12),
+            fontsize=8,
+        )
+    ax.set_xlabel("demonstrations (turn, kinematic)")
+    ax.set_ylabel("training time of the SBLM, s")
+    ax.set_xlim(0, max(x) * 1.15)
+    ax.set_ylim(0, max(r["train_s"] for r in rows) * 1.15)
+    ax.grid(True, alpha=0.3)
+    ax.set_title("Training time against demonstrations", fontsize=11)
+    fig.tight_layout()
+    path = out / "train_curve.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_hmm(results: dict[str, Any], out: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    rows = results["sizes"]
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    labels = [f"{r['states']} × {r['steps']}" for r in rows]
+    ours = [r["ours_us_median"] / 1000 for r in rows]
+    theirs = [(r.get("hmmlearn_us_median") or 0) / 1000 for r in rows]
+    xs = range(len(rows))
+    ax.bar([x - 0.2 for x in xs], ours, 0.4, label="ours (BehaviorHMM.viterbi)")
+    ax.bar([x + 0.2 for x in xs], theirs, 0.4, label="hmmlearn (decode, viterbi)")
+    ax.set_xticks(list(xs), labels)
+    ax.set_yscale("log")
+    ax.set_xlabel("states × steps")
+    ax.set_ylabel("median, ms")
+    ax.legend()
+    ax.set_title("Viterbi on the same models", fontsize=11)
+    fig.tight_layout()
+    path = out / "viterbi.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks._plot", description=__doc__)
+    parser.add_argument("--step")
+    parser.add_argument("--train")
+    parser.add_argument("--hmm")
+    parser.add_argument("-o", "--out", required=True)
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for path, plot in ((args.step, plot_step), (args.train, plot_train), (args.hmm, plot_hmm)):
+        data = _load(path)
+        if data is not None:
+            print(plot(data, out))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,135 @@
+"""Viterbi decoding, ours against hmmlearn's compiled one, on the same models, in one run.
+
+For each size (states × steps) a Behavior-HMM is counted from random labels with add-one
+smoothing (so every table is dense and every row is a distribution, as hmmlearn
+requires), with 4 observation categories per state (our trained models have 3–4: turn
+30 / 98, approach 25 / 77). hmmlearn's ``CategoricalHMM`` gets the same probabilities
+(``startprob_ = π``, ``transmat_ = A``, ``emissionprob_ = B`` from ``to_arrays()``), and
+both decode the same random observation sequence:
+
+* ``ours_us_median``: ``BehaviorHMM.viterbi(observations)`` (public API, validation
+  included);
+* ``hmmlearn_us_median``: ``CategoricalHMM.decode(X, algorithm="viterbi")`` (public API);
+* ``*_kernel_us_median``: the bare kernels, ``viterbi_log`` against hmmlearn's compiled
+  ``_hmmc.viterbi`` given the frame log-likelihoods (informative; private functions).
+
+The two sides are timed alternately, repeat by repeat, so that load on a shared machine
+hits both alike. ``paths_agree`` says whether the decoded paths are identical (and the
+log probabilities are compared too). hmmlearn is an optional dependency
+(``pip install 'behavior-hmm[bench]'``); without it only our side is timed.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+#: (states, steps) pairs timed; the quick run keeps both sizes with fewer repeats.
+SIZES = ((50, 200), (500, 1000))
+#: Observation categories per state.
+CATEGORIES_PER_STATE = 4
+
+
+def _model(n_states: int, n_observations: int, rng: np.random.Generator) -> Any:
+    """A dense Behavior-HMM counted from random labels (add-one smoothing)."""
+    from behavior_hmm.hmm import BehaviorHMM
+
+    samples = max(20_000, 4 * n_states * n_states)
+    states = rng.integers(0, n_states, samples)
+    observations = rng.integers(0, n_observations, samples)
+    hmm = BehaviorHMM(n_states=n_states, n_observations=n_observations, smoothing=1.0)
+    return hmm.fit(states, observations)
+
+
+def _hmmlearn_model(hmm: Any) -> Any:
+    from hmmlearn.hmm import CategoricalHMM
+
+    arrays = hmm.to_arrays()
+    theirs = CategoricalHMM(n_components=hmm.n_states_, n_features=hmm.n_observations_)
+    theirs.startprob_ = arrays["pi"]
+    theirs.transmat_ = arrays["A"]
+    theirs.emissionprob_ = arrays["B"]
+    return theirs
+
+
+def _alternate(fns: dict[str, Callable[[], Any]], repeats: int) -> dict[str, float]:
+    """Median µs of each function, the functions timed in turn within every repeat."""
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append((time.perf_counter() - t0) * 1e6)
+    return {name: float(np.median(t)) for name, t in times.items()}
+
+
+def _size(n_states: int, steps: int, repeats: int, rng: np.random.Generator) -> dict[str, Any]:
+    from behavior_hmm.hmm._viterbi import viterbi_log
+
+    n_obs = CATEGORIES_PER_STATE * n_states
+    hmm = _model(n_states, n_obs, rng)
+    observations = rng.integers(0, n_obs, steps)
+    ours_states, ours_log_prob = hmm.viterbi(observations)
+    row: dict[str, Any] = {
+        "states": n_states,
+        "steps": steps,
+        "observation_categories": n_obs,
+        "repeats": repeats,
+    }
+    fns: dict[str, Callable[[], Any]] = {
+        "ours": lambda: hmm.viterbi(observations),
+        "ours_kernel": lambda: viterbi_log(hmm.log_pi_, hmm.log_A_, hmm.log_B_, observations),
+    }
+    try:
+        from hmmlearn import _hmmc
+    except ImportError:
+        _hmmc = None
+    if _hmmc is not None:
+        theirs = _hmmlearn_model(hmm)
+        x = observations.reshape(-1, 1)
+        frame_log_prob = np.ascontiguousarray(hmm.log_B_[:, observations].T)
+        start, trans = theirs.startprob_, theirs.transmat_
+        fns["hmmlearn"] = lambda: theirs.decode(x, algorithm="viterbi")
+        fns["hmmlearn_kernel"] = lambda: _hmmc.viterbi(start, trans, frame_log_prob)
+        their_log_prob, their_states = theirs.decode(x, algorithm="viterbi")
+        row["paths_agree"] = bool(np.array_equal(ours_states, their_states))
+        row["log_prob_abs_diff"] = abs(float(ours_log_prob) - float(their_log_prob))
+    medians = _alternate(fns, repeats)
+    for name, value in medians.items():
+        row[f"{name}_us_median"] = value
+    if _hmmc is not None:
+        row["ours_over_hmmlearn"] = medians["ours"] / medians["hmmlearn"]
+    else:
+        row["hmmlearn_us_median"] = None
+    return row
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    rng = np.random.default_rng(0)
+    rows = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # hmmlearn's deprecation notices, not ours to fix
+        for n_states, steps in SIZES:
+            small = n_states * n_states * steps < 10**6
+            repeats = (21 if quick else 101) if small else (3 if quick else 21)
+            rows.append(_size(n_states, steps, repeats, rng))
+    results: dict[str, Any] = {"sizes": rows}
+    try:
+        import hmmlearn
+
+        results["hmmlearn_version"] = str(hmmlearn.__version__)
+        results["paths_agree"] = all(row["paths_agree"] for row in rows)
+    except ImportError:
+        results["hmmlearn_version"] = None
+        results["note"] = "hmmlearn is not installed: pip install 'behavior-hmm[bench]'"
+    return results
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(run(), indent=2))
