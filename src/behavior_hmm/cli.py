@@ -468,8 +468,10 @@ def demo(
     from rich.table import Table
     from rich.text import Text
 
-    table = Table(title=f"behavior-hmm demo ({sim})", box=box.SIMPLE_HEAD, show_edge=False)
-    for col in ("behavior", "inputs", "success %", "thesis %", "zero floor %", "goals"):
+    table = Table(
+        title=f"behavior-hmm demo ({sim}, default preset)", box=box.SIMPLE_HEAD, show_edge=False
+    )
+    for col in ("behavior", "inputs", "success %", "thesis's own %", "zero floor %", "goals"):
         table.add_column(col, no_wrap=True)
     for row in rows:
         table.add_row(*[Text(str(x)) for x in row])  # plain text, not rich markup
