@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._goals import best_goal_category, goal_candidates
+from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
 
 
 class LearnedBehavior:
@@ -122,6 +122,26 @@ class LearnedBehavior:
         budget: _modelfile.Budget | None = None,
     ) -> Any:
         raise NotImplementedError
+
+    def _restore_common(self, state: Mapping[str, Any], inputs: tuple[str, ...]) -> None:
+        """Restore, checked, the learned state both kinds save alike (see their ``save``)."""
+        self.command_scale_ = _modelfile.check_number(
+            state["command_scale"], "command_scale", positive=True
+        )
+        self.rest_values_ = _modelfile.check_channel_values(
+            state["rest_values"], "rest_values", inputs
+        )
+        goal = _modelfile.check_channel_values(
+            state["default_goal"], "default_goal", inputs, all_channels=False
+        )
+        self.default_goal_ = check_goal(goal, inputs)
+        self.max_steps_ = _modelfile.check_int(
+            state["max_steps"], "max_steps", 1, _modelfile.MAX_STEPS
+        )
+        self.behavior_ = str(_modelfile.check_text(state["behavior"], "behavior"))
+        self.train_data_ = _modelfile.check_text(
+            state.get("train_data"), "train_data", optional=True
+        )
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "hmm_"):

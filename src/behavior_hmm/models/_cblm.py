@@ -397,28 +397,12 @@ class CBLM(LearnedBehavior):
         if effects.shape != (len(components), len(inputs)):
             raise ModelFileError("effects must have one row per component, one column per input")
         model.effects_ = effects
-        model.command_scale_ = _modelfile.check_number(
-            state["command_scale"], "command_scale", positive=True
-        )
         # files written before the rate limit existed have none: no limit then
         delta = _modelfile.check_number(state.get("delta_scale", 0.0), "delta_scale")
         if delta < 0:
             raise ModelFileError("delta_scale must be >= 0")
         model.delta_scale_ = delta
-        model.rest_values_ = _modelfile.check_channel_values(
-            state["rest_values"], "rest_values", inputs
-        )
-        goal = _modelfile.check_channel_values(
-            state["default_goal"], "default_goal", inputs, all_channels=False
-        )
-        model.default_goal_ = check_goal(goal, inputs)
-        model.max_steps_ = _modelfile.check_int(
-            state["max_steps"], "max_steps", 1, _modelfile.MAX_STEPS
-        )
-        model.behavior_ = str(_modelfile.check_text(state["behavior"], "behavior"))
-        model.train_data_ = _modelfile.check_text(
-            state.get("train_data"), "train_data", optional=True
-        )
+        model._restore_common(state, inputs)
         return model
 
 

@@ -627,26 +627,10 @@ class SBLM(LearnedBehavior):
         model.observations_ = obs
         model.hmm_ = hmm
         model.generators_ = gens
-        model.command_scale_ = _modelfile.check_number(
-            state["command_scale"], "command_scale", positive=True
-        )
         model.delta_scale_ = _modelfile.check_number(
             state["delta_scale"], "delta_scale", positive=True
         )
-        model.rest_values_ = _modelfile.check_channel_values(
-            state["rest_values"], "rest_values", inputs
-        )
-        goal = _modelfile.check_channel_values(
-            state["default_goal"], "default_goal", inputs, all_channels=False
-        )
-        model.default_goal_ = check_goal(goal, inputs)
-        model.max_steps_ = _modelfile.check_int(
-            state["max_steps"], "max_steps", 1, _modelfile.MAX_STEPS
-        )
-        model.behavior_ = str(_modelfile.check_text(state["behavior"], "behavior"))
-        model.train_data_ = _modelfile.check_text(
-            state.get("train_data"), "train_data", optional=True
-        )
+        model._restore_common(state, inputs)
         if "stops" in arrays:  # files written before it was kept have no stops
             stops = _modelfile.check_array(arrays, "stops", ndim=2)
             if stops.shape[1] != len(inputs) or not 0 < stops.shape[0] <= _modelfile.MAX_STEPS:
