@@ -27,6 +27,12 @@ experiment_app = typer.Typer(no_args_is_help=True, help="Reproduce the thesis's 
 
 SIMS = ("mujoco", "kinematic")
 
+#: Options shared by the commands that simulate and write a folder of results.
+OutFolder = Annotated[Path, typer.Option("-o", "--out", help="Folder for results")]
+SimOption = Annotated[str, typer.Option(help="mujoco or kinematic")]
+SeedOption = Annotated[int, typer.Option(help="Seed")]
+NoiseOption = Annotated[float, typer.Option(help="Sensor noise in evaluation")]
+
 #: The options that choose model parameters, shared by every command that trains.
 PresetOption = Annotated[
     str | None,
@@ -253,7 +259,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         goal: Annotated[
             str | None, typer.Option(help="Goal, e.g. angle=0 (default: where demos end)")
         ] = None,
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
+        sim: SimOption = "mujoco",
         seed: Annotated[int, typer.Option(help="Seed of the sensor-noise draws")] = 0,
         noise: Annotated[float, typer.Option(help="Sensor noise (sigma x channel range)")] = 0.0,
         out: Annotated[Path | None, typer.Option("-o", "--out", help="Trace (Parquet)")] = None,
@@ -305,8 +311,8 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             Path | None,
             typer.Option(help="Starts CSV (angle, distance, goal_<channel>); default: 15 tests"),
         ] = None,
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        sim: SimOption = "mujoco",
+        seed: SeedOption = 0,
         noise: Annotated[float, typer.Option(help="Sensor noise (sigma x channel range)")] = 0.0,
         baseline: Annotated[
             list[str] | None, typer.Option(help="Baselines to run beside the model: bc")
@@ -384,12 +390,10 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
     @experiment_app.command("simple")
     @wrap
     def experiment_simple(
-        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
-            "results/simple"
-        ),
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
-        noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+        out: OutFolder = Path("results/simple"),
+        sim: SimOption = "mujoco",
+        seed: SeedOption = 0,
+        noise: NoiseOption = 0.0,
         preset: PresetOption = None,
         config: ConfigOption = None,
         set_: SetOption = None,
@@ -423,12 +427,10 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
     @experiment_app.command("complex")
     @wrap
     def experiment_complex(
-        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
-            "results/complex"
-        ),
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
-        noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+        out: OutFolder = Path("results/complex"),
+        sim: SimOption = "mujoco",
+        seed: SeedOption = 0,
+        noise: NoiseOption = 0.0,
         preset: PresetOption = None,
         config: ConfigOption = None,
         set_: SetOption = None,
@@ -463,12 +465,10 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
     @experiment_app.command("ablation")
     @wrap
     def experiment_ablation(
-        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
-            "results/ablation"
-        ),
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
-        noise: Annotated[float, typer.Option(help="Sensor noise in evaluation")] = 0.0,
+        out: OutFolder = Path("results/ablation"),
+        sim: SimOption = "mujoco",
+        seed: SeedOption = 0,
+        noise: NoiseOption = 0.0,
         task: Annotated[
             list[str] | None,
             typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
@@ -520,11 +520,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
     @experiment_app.command("faults")
     @wrap
     def experiment_faults(
-        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
-            "results/faults"
-        ),
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        out: OutFolder = Path("results/faults"),
+        sim: SimOption = "mujoco",
+        seed: SeedOption = 0,
         task: Annotated[
             list[str] | None,
             typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
@@ -574,11 +572,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
     @experiment_app.command("categorization")
     @wrap
     def experiment_categorization(
-        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
-            "results/categorization"
-        ),
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        out: OutFolder = Path("results/categorization"),
+        sim: SimOption = "mujoco",
+        seed: SeedOption = 0,
     ) -> None:
         """Thesis §6.1: turn primitives at vigilance 0.85 and 0.75 (table 6.1, figs 6.1-6.4)."""
         from behavior_hmm._atomic import all_or_none
@@ -606,12 +602,10 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
     @experiment_app.command("generators")
     @wrap
     def experiment_generators(
-        out: Annotated[Path, typer.Option("-o", "--out", help="Folder for results")] = Path(
-            "results/generators"
-        ),
-        sim: Annotated[str, typer.Option(help="mujoco or kinematic")] = "mujoco",
+        out: OutFolder = Path("results/generators"),
+        sim: SimOption = "mujoco",
         epochs: Annotated[int, typer.Option(help="Epochs per setting")] = 100,
-        seed: Annotated[int, typer.Option(help="Seed")] = 0,
+        seed: SeedOption = 0,
     ) -> None:
         """Thesis §6.2 and appendix A: generator training sweeps (figs 6.5-6.7, A.1).
 
