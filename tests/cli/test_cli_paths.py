@@ -113,6 +113,30 @@ SPECS: dict[str, Spec] = {
         outputs={"-o": ""},
         folder=True,
     ),
+    "experiment faults": Spec(
+        lambda f, o: ["experiment", "faults", *K, "--task", "turn", "-o", o["-o"]],
+        outputs={"-o": ""},
+        folder=True,
+    ),
+    "import-bag": Spec(
+        lambda f, o: ["import-bag", f["BAG"], "--map", "angle=/bearing:data", "-o", o["-o"]],
+        ("BAG",),
+        {"-o": ".parquet"},
+    ),
+    "import-lerobot": Spec(
+        lambda f, o: [
+            *("import-lerobot", f["FOLDER"], "--map", "angle=observation.state:0"),
+            *("-o", o["-o"]),
+        ],
+        ("FOLDER",),
+        {"-o": ".parquet"},
+    ),
+    "export-lerobot": Spec(
+        lambda f, o: ["export-lerobot", f["DATA"], o["FOLDER"]],
+        ("DATA",),
+        {"FOLDER": ""},
+        folder=True,
+    ),
     "bench": Spec(
         lambda f, o: ["bench", "sim", "--quick", "--json", o["--json"]],
         outputs={"--json": ".json"},
@@ -139,7 +163,19 @@ def files(tmp_path: Path, turn_parquet: Path, turn_bhmm: Path) -> dict[str, Path
         "--config": config,
         "--component": component,
         "MODEL_FILE": model,
+        "BAG": _file(inputs / "log.bag", b"not read: paths are checked first"),
+        "FOLDER": _folder(inputs / "lerobot"),
     }
+
+
+def _file(path: Path, data: bytes) -> Path:
+    path.write_bytes(data)
+    return path
+
+
+def _folder(path: Path) -> Path:
+    path.mkdir()
+    return path
 
 
 def _outputs(spec: Spec, folder: Path) -> dict[str, Path]:
@@ -210,6 +246,8 @@ def test_an_output_linked_to_an_input_is_refused(
     name, option, source = case
     spec = SPECS[name]
     outputs = _outputs(spec, tmp_path)
+    if link == "hard link" and files[source].is_dir():
+        pytest.skip("a folder cannot be hard-linked")
     alias = tmp_path / f"alias{files[source].suffix}"
     if link == "symlink":
         alias.symlink_to(files[source])
