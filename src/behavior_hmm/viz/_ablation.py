@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import os
-from pathlib import Path
 from typing import Any
 
 from matplotlib.figure import Figure
 
-from behavior_hmm._atomic import atomic_write_bytes
+from behavior_hmm.viz._reports import write_results_files
+from behavior_hmm.viz._traces import _save
 
 
 def ablation_markdown(results: dict[str, Any]) -> str:
@@ -82,12 +81,7 @@ def plot_ablation(results: dict[str, Any]) -> Figure:
 
 def write_ablation_report(results: dict[str, Any], out: str | os.PathLike[str]) -> str:
     """Write ``results.json``, ``table.md`` and ``ablation.png`` into ``out``; return the table."""
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(results, indent=1, default=float)
-    atomic_write_bytes(folder / "results.json", text.encode())
     table = ablation_markdown(results)
-    atomic_write_bytes(folder / "table.md", (table + "\n").encode())
-    fig = plot_ablation(results)
-    fig.savefig(folder / "ablation.png", dpi=110)
+    folder = write_results_files(out, results, table + "\n")
+    _save(plot_ablation(results), folder / "ablation.png", dpi=110)
     return table

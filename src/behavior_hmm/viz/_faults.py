@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import io
-import json
 import os
-from pathlib import Path
 from typing import Any
 
 from matplotlib.figure import Figure
 
-from behavior_hmm._atomic import atomic_write_bytes
+from behavior_hmm.viz._reports import write_results_files
+from behavior_hmm.viz._traces import _save
 
 _TASK_LABEL = {"turn": "turn", "approach": "approach", "turn-approach": "turn & approach"}
 _COLOURS = {"turn": "tab:blue", "approach": "tab:orange", "turn-approach": "tab:green"}
@@ -170,17 +168,11 @@ def plot_faults(results: dict[str, Any], metric: str = "goal_reached") -> Figure
 
 def write_faults_report(results: dict[str, Any], out: str | os.PathLike[str]) -> str:
     """Write ``results.json``, ``table.md``, ``faults_goal.png`` and ``faults_success.png``."""
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(results, indent=1, default=float)
-    atomic_write_bytes(folder / "results.json", text.encode())
     table = faults_markdown(results)
-    atomic_write_bytes(folder / "table.md", (table + "\n").encode())
+    folder = write_results_files(out, results, table + "\n")
     for metric, name in (
         ("goal_reached", "faults_goal.png"),
         ("success_rate_mean", "faults_success.png"),
     ):
-        buffer = io.BytesIO()
-        plot_faults(results, metric).savefig(buffer, format="png", dpi=110)
-        atomic_write_bytes(folder / name, buffer.getvalue())
+        _save(plot_faults(results, metric), folder / name, dpi=110)
     return table

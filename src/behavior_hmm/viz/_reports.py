@@ -22,6 +22,16 @@ _THESIS_FIGURE = {"turn": "6.8", "approach": "6.9"}
 _APPENDIX_FIGURE = {"turn": "B.1", "approach": "B.2"}
 
 
+def write_results_files(out: str | os.PathLike[str], results: Any, table: str) -> Path:
+    """Create the folder ``out`` and write ``results.json`` and ``table.md`` into it (atomic)."""
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(results, indent=1, default=float)
+    atomic_write_bytes(folder / "results.json", text.encode())
+    atomic_write_bytes(folder / "table.md", table.encode())
+    return folder
+
+
 def write_simple_report(results: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
     """Write ``results.json``, the figures and ``table.md`` of the simple experiment.
 
@@ -63,9 +73,8 @@ def write_simple_report(results: dict[str, Any], out_dir: str | os.PathLike[str]
                     "its colour (* = goal not reached)",
                 )
     public = {k: v for k, v in results.items() if k != "figures"}
-    atomic_write_bytes(out / "results.json", json.dumps(public, indent=1, default=float).encode())
     table = simple_table(results)
-    atomic_write_bytes(out / "table.md", table.encode())
+    write_results_files(out, public, table)
     return table
 
 
@@ -113,9 +122,8 @@ def write_complex_report(results: dict[str, Any], out_dir: str | os.PathLike[str
             f"generated vs demonstrated{where}",
         )
     public = {k: v for k, v in results.items() if k != "figure"}
-    atomic_write_bytes(out / "results.json", json.dumps(public, indent=1, default=float).encode())
     table = complex_table(results)
-    atomic_write_bytes(out / "table.md", table.encode())
+    write_results_files(out, public, table)
     return table
 
 
