@@ -32,6 +32,10 @@ OutFolder = Annotated[Path, typer.Option("-o", "--out", help="Folder for results
 SimOption = Annotated[str, typer.Option(help="mujoco or kinematic")]
 SeedOption = Annotated[int, typer.Option(help="Seed")]
 NoiseOption = Annotated[float, typer.Option(help="Sensor noise in evaluation")]
+TaskOption = Annotated[
+    list[str] | None,
+    typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
+]
 
 #: The options that choose model parameters, shared by every command that trains.
 PresetOption = Annotated[
@@ -469,10 +473,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         sim: SimOption = "mujoco",
         seed: SeedOption = 0,
         noise: NoiseOption = 0.0,
-        task: Annotated[
-            list[str] | None,
-            typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
-        ] = None,
+        task: TaskOption = None,
         departure: Annotated[
             list[str] | None,
             typer.Option(help="Only this departure's rows (repeatable), e.g. onset_clock"),
@@ -486,21 +487,19 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         """
         from behavior_hmm._atomic import all_or_none
         from behavior_hmm._paths import check_outputs
-        from behavior_hmm.evaluate._ablation import ablation_rows
+        from behavior_hmm.evaluate._ablation import run_ablation
         from behavior_hmm.evaluate._ablation import task as ablation_task
+        from behavior_hmm.models._presets import departure as named_departure
         from behavior_hmm.viz._ablation import write_ablation_report
 
         _check_sim(sim)
         check_seed(seed)
         check_noise(noise)
         check_outputs({}, {}, folders={"-o": out})
-        from behavior_hmm.models._presets import departure as named_departure
-
         for name in departure or []:
             named_departure(name)  # refuse bad names before any work
         for name in task or []:
-            ablation_rows(ablation_task(name), departure)
-        from behavior_hmm.evaluate._ablation import run_ablation
+            ablation_task(name)
 
         results = _with_progress(
             progress,
@@ -523,10 +522,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         out: OutFolder = Path("results/faults"),
         sim: SimOption = "mujoco",
         seed: SeedOption = 0,
-        task: Annotated[
-            list[str] | None,
-            typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
-        ] = None,
+        task: TaskOption = None,
         fault: Annotated[
             list[str] | None,
             typer.Option(
