@@ -28,7 +28,11 @@ from numpy.typing import NDArray
 from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._transform import DataImportWarning, finish, parse_derive
-from behavior_hmm.data._units import unit_factor, wrap_degrees
+from behavior_hmm.data._units import (
+    MAX_UNWRAPPED_ANGLE,
+    unit_factor,
+    wrap_imported_angles,
+)
 from behavior_hmm.data._validate import check_table, suggest
 from behavior_hmm.errors import ConfigError, DatasetError
 
@@ -40,9 +44,6 @@ DEFAULT_FIELD: Final[str] = "data"
 
 _PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)\Z")
 _INDEX = re.compile(r"\[(\d+)\]")
-
-#: Largest |angle| (deg, after unit conversion) accepted before wrapping.
-_MAX_ANGLE = 36000.0
 
 
 @dataclass(frozen=True)
@@ -486,15 +487,13 @@ def _check_angle(cols: dict[str, NDArray[Any]], src: TopicField | None, bag: str
     if "angle" not in cols:
         return
     angle = cols["angle"]
-    with np.errstate(invalid="ignore"):
-        huge = np.abs(angle) > _MAX_ANGLE
-        cols["angle"] = np.where(np.isfinite(angle), wrap_degrees(angle), angle)
-    if huge.any():
-        i = int(np.argmax(huge))
+    cols["angle"], absurd = wrap_imported_angles(angle)
+    if absurd is not None:
+        i = absurd
         episode = cols["episode"]
         eid = int(episode[i])
         raise DatasetError(
-            f"absurd angle {angle[i]:g} deg (beyond ±{_MAX_ANGLE:g} deg; wrong units? "
+            f"absurd angle {angle[i]:g} deg (beyond ±{MAX_UNWRAPPED_ANGLE:g} deg; wrong units? "
             "--unit angle=rad)",
             file=bag,
             episode=eid,

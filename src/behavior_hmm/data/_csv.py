@@ -29,7 +29,11 @@ from behavior_hmm.data._transform import (
     finish,
     parse_derive,
 )
-from behavior_hmm.data._units import unit_factor, wrap_degrees
+from behavior_hmm.data._units import (
+    MAX_UNWRAPPED_ANGLE,
+    unit_factor,
+    wrap_imported_angles,
+)
 from behavior_hmm.data._validate import (
     FLOAT_COLUMNS,
     OPTIONAL_COLUMNS,
@@ -39,9 +43,6 @@ from behavior_hmm.data._validate import (
 from behavior_hmm.errors import ConfigError, DatasetError
 
 _OURS = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS)
-
-#: Largest |angle| (deg, after unit conversion) accepted before wrapping into (−180, 180].
-MAX_UNWRAPPED_ANGLE = 36000.0
 
 #: A number as pyarrow's float parser reads it (used only to find a bad cell quickly).
 _NUMBER_RE = r"(?i)^[+-]?((\d+\.?\d*|\.\d+)(e[+-]?\d+)?|nan|inf|infinity)$"
@@ -464,13 +465,10 @@ def import_csv(
     if "behavior" in index:
         columns["behavior"] = np.array(cells("behavior").to_pylist(), dtype=object)
 
-    # Wrapping would hide absurd angles, so refuse those first.
     angle = columns["angle"]
-    with np.errstate(invalid="ignore"):
-        huge = np.abs(angle) > MAX_UNWRAPPED_ANGLE
-        columns["angle"] = np.where(np.isfinite(angle), wrap_degrees(angle), angle)
-    if huge.any():
-        i = int(np.argmax(huge))
+    columns["angle"], absurd = wrap_imported_angles(angle)
+    if absurd is not None:
+        i = absurd
         raise _cell_error(
             f"absurd angle {angle[i]:g} deg (beyond ±{MAX_UNWRAPPED_ANGLE:g} deg; wrong units?)",
             i,

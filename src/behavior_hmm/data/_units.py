@@ -51,6 +51,24 @@ def wrap_degrees(angle: ArrayLike) -> NDArray[np.float64]:
     return a - 360.0 * np.ceil((a - 180.0) / 360.0)
 
 
+#: An imported angle beyond this (deg) is refused rather than wrapped: 100 turns means the
+#: log is in other units (radians read as degrees are fine; milliradians or 1e5 are not).
+MAX_UNWRAPPED_ANGLE = 36000.0
+
+
+def wrap_imported_angles(angle: NDArray[np.float64]) -> tuple[NDArray[np.float64], int | None]:
+    """Imported angles (deg) wrapped into (−180, 180], and the first absurd row, if any.
+
+    Wrapping would hide absurd values, so the row of the first one beyond
+    ``MAX_UNWRAPPED_ANGLE`` is returned for the importer to refuse (``None``: all fine).
+    Non-finite values are left as they are for the validator to name.
+    """
+    with np.errstate(invalid="ignore"):
+        huge = np.abs(angle) > MAX_UNWRAPPED_ANGLE
+        wrapped = np.where(np.isfinite(angle), wrap_degrees(angle), angle)
+    return wrapped, (int(np.argmax(huge)) if huge.any() else None)
+
+
 def wrap_degree(angle: float) -> float:
     """Scalar twin of :func:`wrap_degrees` with bit-identical results (NaN stays NaN)."""
     turns = (angle - 180.0) / 360.0
