@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from typing import Any, NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from behavior_hmm._estimator import Estimator
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.generators._mlp import (
     FloatArray,
@@ -25,7 +25,7 @@ DEFAULT_BATCH_SIZE = 16
 HIDDEN_PER_CHANNEL = 5
 
 
-class MotionGenerators:
+class MotionGenerators(Estimator):
     """One tanh network per motion primitive, mapping a sensor window to commands.
 
     All primitives' networks have the same layer sizes and are trained together
@@ -115,26 +115,6 @@ class MotionGenerators:
         self.random_state = random_state
 
     # ------------------------------------------------------------------ params
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Constructor parameters by name (scikit-learn convention)."""
-        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
-        return {name: getattr(self, name) for name in names}
-
-    def set_params(self, **params: Any) -> MotionGenerators:
-        """Set constructor parameters; returns ``self``."""
-        valid = self.get_params()
-        for name, value in params.items():
-            if name not in valid:
-                raise ConfigError(f"unknown parameter {name!r} for MotionGenerators")
-            setattr(self, name, value)
-        return self
-
-    def __repr__(self) -> str:
-        defaults = type(self)().get_params()
-        changed = {k: v for k, v in self.get_params().items() if v != defaults[k]}
-        inner = ", ".join(f"{k}={v!r}" for k, v in changed.items())
-        return f"MotionGenerators({inner})"
-
     def _validated_params(self) -> None:
         _check_int("window", self.window, 1)
         _check_int("epochs", self.epochs, 1)

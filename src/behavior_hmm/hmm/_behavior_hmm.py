@@ -8,7 +8,6 @@ CBLM.
 
 from __future__ import annotations
 
-import inspect
 import numbers
 from collections import OrderedDict
 from collections.abc import Mapping
@@ -17,6 +16,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from behavior_hmm._estimator import Estimator
 from behavior_hmm.errors import (
     ConfigError,
     DatasetError,
@@ -63,7 +63,7 @@ _ROW_SUM_TOL = 1e-6
 _MATCH_TOL = 1e-9
 
 
-class BehaviorHMM:
+class BehaviorHMM(Estimator):
     """Behavior-HMM estimated by counting (thesis table 4.3), probabilities in log space.
 
     Parameters
@@ -137,37 +137,15 @@ class BehaviorHMM:
         self.on_impossible = on_impossible
 
     # ------------------------------------------------------------------ params
-    @classmethod
-    def _param_names(cls) -> list[str]:
-        sig = inspect.signature(cls.__init__)
-        return [p for p in sig.parameters if p != "self"]
-
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Constructor parameters as a dict (scikit-learn convention)."""
-        return {name: getattr(self, name) for name in self._param_names()}
-
-    def set_params(self, **params: Any) -> BehaviorHMM:
-        """Set constructor parameters; returns ``self``. Clears the planning caches."""
-        names = self._param_names()
-        for key, value in params.items():
-            if key not in names:
-                raise ConfigError(f"unknown BehaviorHMM parameter {key!r}; known: {names}")
-            setattr(self, key, value)
+    def _params_changed(self) -> None:
+        """``set_params`` clears the planning caches (they depend on the parameters)."""
         if hasattr(self, "log_A_"):
             self._reset_caches()
-        return self
 
     @property
     def params(self) -> dict[str, Any]:
         """JSON-ready constructor parameters, for the model file (see :meth:`from_arrays`)."""
         return self.get_params()
-
-    def __repr__(self) -> str:
-        defaults = {
-            n: p.default for n, p in inspect.signature(type(self).__init__).parameters.items()
-        }
-        args = [f"{k}={v!r}" for k, v in self.get_params().items() if v != defaults.get(k)]
-        return f"{type(self).__name__}({', '.join(args)})"
 
     def _validate_params(self) -> None:
         for name in ("n_states", "n_observations"):
@@ -470,7 +448,7 @@ class BehaviorHMM:
         ``o_current`` to ``o_goal`` when state ``i`` emits ``o_current`` (π excluded).
         ``plan`` takes ``argmax(log π + scores)`` as its first state; a caller that
         tracks the states already visited can use its own prior instead (see
-        ``runtime.SimpleController``, ``state_decoding="history"``).
+        ``models._policy.SimplePolicy``, ``state_decoding="history"``).
 
         Raises
         ------
