@@ -9,7 +9,7 @@ reference, the 16 ms control period is the budget):
 * ``scaling``: SBLMs of the same turn data with more observation categories (100 …
   5,000) or more primitives (100 … 1,000), made by raising the CobART vigilance of that
   layer (found by bisection; the real counts are reported), run through the same
-  controller (``behavior_hmm.runtime.SimpleController``).
+  policy (``SBLM.policy()``, ``CBLM.policy()``).
 
 Each figure has a median, a 99th percentile and a maximum of wall-clock time. The first
 step of a run is left out of them (it plans before the robot moves and refuses an
@@ -69,11 +69,11 @@ def time_steps(
 ) -> dict[str, Any]:
     """Run ``model`` from each start and time its control steps (see the module doc)."""
     from behavior_hmm.errors import UnreachableGoalError
-    from behavior_hmm.runtime import make_controller
-    from behavior_hmm.runtime._loop import start_options
+    from behavior_hmm.runtime import Robot, start_options
     from behavior_hmm.teach import complete_start, test_starts
 
     chosen = test_starts(behavior) if starts is None else starts
+    robot = Robot(env)
     wall: list[float] = []
     cpu: list[float] = []
     first: list[float] = []
@@ -84,9 +84,10 @@ def time_steps(
     clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
     try:
         for i, start in enumerate(chosen):
-            controller = make_controller(model, None)
+            controller = model.policy()
             options = start_options(complete_start(behavior, start), None, None)
-            obs, _ = env.reset(seed=i, options=options)
+            reading, _, _ = robot.reset(seed=i, options=options)
+            obs = robot.as_dict(reading)
             controller.reset()
             gc.collect()
             gc.freeze()  # what set-up made is out of the collector's reach
@@ -110,7 +111,8 @@ def time_steps(
                     break
                 counter.active = False
                 t2 = clock()
-                obs, *_ = env.step(out.command)
+                reading, _, _ = robot.step(out.command)
+                obs = robot.as_dict(reading)
                 env_us.append((clock() - t2) / 1e3)
                 counter.active = True
             counter.active = False

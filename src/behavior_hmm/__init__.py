@@ -18,6 +18,10 @@ from behavior_hmm.errors import (
 
 __version__ = "0.1.0"
 
+from behavior_hmm._envs import register_envs as _register_envs
+
+_register_envs()
+
 __all__ = [
     "BehaviorHMMError",
     "ConfigError",

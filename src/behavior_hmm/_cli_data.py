@@ -52,6 +52,15 @@ ResampleOption = Annotated[
     ),
 ]
 BehaviorOption = Annotated[str | None, typer.Option(help="Behavior name stored in metadata")]
+ChannelOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--channel",
+        help="NAME:UNIT:LO:HI, a robot's own sensor column of your file (e.g. ir0:m:0:0.1 "
+        "for an infrared proximity reading in m, normalized from [0, 0.1]); imported in "
+        "that unit and declared in the dataset's metadata (repeatable)",
+    ),
+]
 OutOption = Annotated[Path, typer.Option("-o", "--out", help="Output Parquet file")]
 
 
@@ -105,8 +114,36 @@ def _derive(option: str | None, options: dict[str, Any]) -> tuple[str, ...]:
 
 
 def _metadata(behavior: str | None, options: dict[str, Any]) -> dict[str, Any]:
+    """The imported dataset's behavior, and the goal channels of a registered behavior.
+
+    The goal travels in the metadata (``goal``), so a model learns where a registered
+    behavior's demonstrations aim without knowing its name (docs/robots.md).
+    """
+    from behavior_hmm.teach import BEHAVIORS
+
     name = behavior if behavior is not None else options.get("behavior")
-    return {} if name is None else {"behavior": name}
+    if name is None:
+        return {}
+    spec = BEHAVIORS.get(str(name))
+    return {"behavior": name} if spec is None else {"behavior": name, "goal": dict(spec.goal)}
+
+
+def channel_options(items: list[str]) -> list[dict[str, Any]]:
+    """``["ir0:m:0:0.1", ...]`` -> channel declarations ``{"name", "unit", "range"}``."""
+    out: list[dict[str, Any]] = []
+    for item in items:
+        parts = [part.strip() for part in item.split(":")]
+        if len(parts) != 4 or not all(parts):
+            raise ConfigError(f"--channel expects NAME:UNIT:LO:HI (e.g. ir0:m:0:0.1), got '{item}'")
+        name, unit, lo, hi = parts
+        try:
+            bounds = [float(lo), float(hi)]
+        except ValueError:
+            raise ConfigError(
+                f"--channel {item}: LO and HI must be numbers (e.g. ir0:m:0:0.1)"
+            ) from None
+        out.append({"name": name, "unit": unit, "range": bounds})
+    return out
 
 
 def _wrote(out: Path, dataset: Any) -> None:
@@ -146,13 +183,15 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any]) -> None:
         resample: ResampleOption = False,
         map_file: MapFileOption = None,
         behavior: BehaviorOption = None,
+        channel: ChannelOption = None,
     ) -> None:
         """Convert a CSV log into a validated dataset (same checks as Parquet).
 
         Episode ids may be integers or names (run-a, run-b: numbered in order of
         appearance, the names kept in the metadata). Every column that is not ours is
-        named in one error; --drop ignores one, --map renames one. A log sampled at
-        another rate than 16 ms gets a warning unless --resample.
+        named in one error; --drop ignores one, --map renames one, --channel declares
+        one as a robot's own sensor channel. A log sampled at another rate than 16 ms
+        gets a warning unless --resample.
         Example: behavior-hmm import-csv log.csv --map angle=bearing --unit angle=rad
         --unit t=ms --derive linear_velocity,angular_velocity --resample -o mine.parquet
         """
@@ -161,6 +200,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any]) -> None:
 
         mapping, units, options = _merged(map_, unit, map_file, "csv")
         derived = _derive(derive, options)
+        channels = channel_options(channel or [])
         text = delimiter if delimiter is not None else str(options.get("delimiter", ","))
         sep = "\t" if text in ("tab", "\\t") else text
         if len(sep) != 1:
@@ -177,6 +217,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any]) -> None:
                 delimiter=sep,
                 derive=derived,
                 resample=resample or bool(options.get("resample")),
+                channels=channels,
             )
         data.write(dataset, out)
         _wrote(out, dataset)

@@ -20,7 +20,8 @@ from typing import Annotated, Any
 
 import typer
 
-from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
+from behavior_hmm.data._channels import ARENA_MAX_DISTANCE
+from behavior_hmm.errors import ConfigError, DatasetError
 
 train_app = typer.Typer(no_args_is_help=True, help="Learn a behavior from demonstrations.")
 experiment_app = typer.Typer(no_args_is_help=True, help="Reproduce the thesis's experiments.")
@@ -31,7 +32,30 @@ SIMS = ("mujoco", "kinematic")
 OutFolder = Annotated[Path, typer.Option("-o", "--out", help="Folder for results")]
 SimOption = Annotated[str, typer.Option(help="mujoco or kinematic")]
 SeedOption = Annotated[int, typer.Option(help="Seed")]
+#: A robot of the user's own (the robot contract, docs/robots.md), in place of --sim.
+EnvOption = Annotated[
+    str | None,
+    typer.Option(
+        "--env",
+        help="A robot of your own instead of --sim: a registered Gymnasium id, "
+        "package.module:factory or path/to/file.py:factory (docs/robots.md)",
+    ),
+]
+EnvKwargsOption = Annotated[
+    str | None,
+    typer.Option(
+        "--env-kwargs", help="JSON object passed to the --env factory, e.g. '{\"mass\": 2}'"
+    ),
+]
 NoiseOption = Annotated[float, typer.Option(help="Sensor noise in evaluation")]
+#: How videos are drawn (``generate --video``, ``evaluate --videos``).
+VideoBackendOption = Annotated[
+    str,
+    typer.Option(
+        "--video-backend",
+        help="matplotlib (top-down, always works) or mujoco (offscreen 3-D; MUJOCO_GL=egl)",
+    ),
+]
 TaskOption = Annotated[
     list[str] | None,
     typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
@@ -116,13 +140,32 @@ def parse_assignments(
     return out
 
 
-def parse_start(text: str) -> dict[str, float]:
-    """A ``--start``: angle and/or distance, inside the arena (:class:`ConfigError` if not)."""
+def parse_start(text: str, arena: bool = True) -> dict[str, float]:
+    """A ``--start``: angle and/or distance, inside our arena unless ``arena`` is False
+    (another robot's, ``--env``) (:class:`ConfigError` if not)."""
     from behavior_hmm.teach import check_start
 
     start = parse_assignments(text, "--start", START_KEYS)
-    check_start(start)
+    check_start(start, ARENA_MAX_DISTANCE if arena else math.inf)
     return start
+
+
+def warn_provenance(model: Any, env: Any, env_name: str) -> None:
+    """Warn (stderr) when ``env`` is not the robot, or not the control period, of training."""
+    from behavior_hmm.runtime import Robot
+
+    trained = getattr(model, "provenance_", None) or {}
+    was = trained.get("env")
+    if was and was != env_name:
+        typer.echo(f"warning: the model was trained on {was}, running on {env_name}", err=True)
+    period = trained.get("control_period")
+    now = Robot(env).control_period
+    if period and abs(float(period) - now) > 1e-9:
+        typer.echo(
+            f"warning: the model was trained at a {float(period) * 1000:g} ms control period, "
+            f"{env_name} runs at {now * 1000:g} ms",
+            err=True,
+        )
 
 
 def check_seed(seed: int, option: str = "--seed") -> int:
@@ -141,22 +184,52 @@ def check_noise(noise: float, option: str = "--noise") -> float:
 
 def load_model(path: Path) -> Any:
     """Load an SBLM or CBLM file, whichever it holds."""
-    from behavior_hmm.models import _modelfile
+    from behavior_hmm.models import load
 
-    header, _ = _modelfile.load(path)
-    kind = header["kind"]
-    if kind == "SBLM":
-        from behavior_hmm.models import SBLM
-
-        return SBLM.load(path)
-    if kind == "CBLM":
-        from behavior_hmm import models
-
-        return models.CBLM.load(path)
-    raise ModelFileError(f"{path}: unknown model kind '{kind}'")
+    return load(path)
 
 
-def _check_sim(sim: str) -> str:
+def open_env(sim: str, env: str | None, env_kwargs: str | None) -> tuple[Any, str]:
+    """The env to run on and its name: ``--env`` (with ``--env-kwargs``) or ``--sim``."""
+    from behavior_hmm.runtime import Robot, make_robot_env, parse_env_kwargs
+
+    if env is None:
+        if env_kwargs:
+            raise ConfigError("--env-kwargs needs --env (the factory it is passed to)")
+        from behavior_hmm.sim import make_env
+
+        return make_env(check_sim(sim)), sim
+    made = make_robot_env(env, parse_env_kwargs(env_kwargs))
+    Robot(made)  # the contract is checked now, before anything runs
+    return made, env
+
+
+def check_video(path: Path, backend: str) -> None:
+    """Refuse a video file or backend we cannot write, before anything runs."""
+    from behavior_hmm.viz._mujoco_video import VIDEO_BACKENDS
+    from behavior_hmm.viz._video import _video_format
+
+    if backend not in VIDEO_BACKENDS:
+        raise ConfigError(
+            f"unknown --video-backend '{backend}'; choose one of {', '.join(VIDEO_BACKENDS)}"
+        )
+    _video_format(path)
+
+
+def write_video(trace: Any, path: Path, backend: str, robot: Any, title: str = "") -> None:
+    """Render one run's video with ``backend`` (see :func:`check_video`)."""
+    if backend == "mujoco":
+        from behavior_hmm.viz._mujoco_video import render_trace_mujoco
+
+        render_trace_mujoco(trace, path, robot=robot)
+    else:
+        from behavior_hmm.viz import render_trace
+
+        render_trace(trace, path, robot=robot, title=title)
+
+
+def check_sim(sim: str) -> str:
+    """Refuse an unknown ``--sim`` with its choices."""
     if sim not in SIMS:
         raise ConfigError(f"unknown simulator '{sim}'; choose one of {', '.join(SIMS)}")
     return sim
@@ -202,7 +275,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         dataset = bdata.read(data)
         t0 = time.perf_counter()
         model.fit(dataset)
-        model.train_data_ = str(data)
+        model.set_training_data(data)
         model.save(out)
         typer.echo(
             f"wrote {out}: {model.behavior_} on {','.join(model.inputs_)}, "
@@ -244,7 +317,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         dataset = bdata.read(data)
         t0 = time.perf_counter()
         model = CBLM(components, **params["CBLM"], inputs=_inputs(inputs)).fit(dataset)
-        model.train_data_ = str(data)
+        model.set_training_data(data)
         model.save(out)
         typer.echo(
             f"wrote {out}: {model.behavior_} over {', '.join(model.names_)} on "
@@ -267,6 +340,12 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         seed: Annotated[int, typer.Option(help="Seed of the sensor-noise draws")] = 0,
         noise: Annotated[float, typer.Option(help="Sensor noise (sigma x channel range)")] = 0.0,
         out: Annotated[Path | None, typer.Option("-o", "--out", help="Trace (Parquet)")] = None,
+        env: EnvOption = None,
+        env_kwargs: EnvKwargsOption = None,
+        video: Annotated[
+            Path | None, typer.Option(help="Video of the run: run.mp4 or run.gif (video extra)")
+        ] = None,
+        video_backend: VideoBackendOption = "matplotlib",
         plot: Annotated[
             Path | None,
             typer.Option(help="Plot of the run, in its extension's format (.png, .svg, .pdf)"),
@@ -278,19 +357,25 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         """
         from behavior_hmm._atomic import all_or_none
         from behavior_hmm._paths import check_outputs
-        from behavior_hmm.sim import make_env
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         check_noise(noise)
-        check_outputs({"MODEL_FILE": model_file}, {"-o": out, "--plot": plot}, plots=("--plot",))
-        begin = parse_start(start)
+        check_outputs(
+            {"MODEL_FILE": model_file},
+            {"-o": out, "--plot": plot, "--video": video},
+            plots=("--plot",),
+        )
+        if video is not None:
+            check_video(video, video_backend)
+        begin = parse_start(start, arena=env is None)
         target = parse_assignments(goal, "--goal") if goal is not None else None
         model = load_model(model_file)
         if target is not None:
             model.resolve_goal(target)  # refuse a bad goal before any motion
-        env = make_env(sim)
-        trace = model.generate(env, start=begin, goal=target, seed=seed, noise=noise)
+        robot, robot_name = open_env(sim, env, env_kwargs)
+        warn_provenance(model, robot, robot_name)
+        trace = model.generate(robot, start=begin, goal=target, seed=seed, noise=noise or None)
         summary = trace.summary()
         typer.echo(json.dumps(summary, default=float))
         with all_or_none():
@@ -300,10 +385,14 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 from behavior_hmm.viz import plot_trace
 
                 plot_trace(trace, plot)
+            if video is not None:
+                write_video(trace, video, video_backend, robot, title=model_file.stem)
         if out is not None:
             typer.echo(f"trace: {out}")
         if plot is not None:
             typer.echo(f"plot: {plot}")
+        if video is not None:
+            typer.echo(f"video: {video}")
         if not trace.goal_reached:
             raise typer.Exit(code=1)
 
@@ -336,6 +425,13 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 "e.g. at=0.5,angle=20"
             ),
         ] = None,
+        env: EnvOption = None,
+        env_kwargs: EnvKwargsOption = None,
+        videos: Annotated[
+            Path | None,
+            typer.Option(help="Folder for one video per run, case_NN.mp4 (video extra)"),
+        ] = None,
+        video_backend: VideoBackendOption = "matplotlib",
     ) -> None:
         """Score a model (and baselines) against the teacher from test starts.
 
@@ -348,37 +444,67 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm._atomic import all_or_none, atomic_write_bytes
         from behavior_hmm._paths import check_outputs
         from behavior_hmm.evaluate import evaluate_model
-        from behavior_hmm.teach import read_starts, test_starts
+        from behavior_hmm.teach import read_starts, scaled_starts, test_starts
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         check_noise(noise)
         pushed = _push(push) if push is not None else None
+        robot, robot_name = open_env(sim, env, env_kwargs) if env is not None else (None, sim)
         inputs: dict[str, Any] = {"MODEL_FILE": model_file, "--starts": starts, "--data": data}
         outputs = {"--json": json_out, "--report": report}
-        check_outputs(inputs, outputs)
+        check_outputs(inputs, outputs, folders={"--videos": videos} if videos else None)
+        if videos is not None:
+            check_video(videos / "case_00.mp4", video_backend)
         model = load_model(model_file)
         if baseline and data is None and getattr(model, "train_data_", None):
             # the baselines train on the model's own data file: never write over it
             inputs["the model's training data"] = Path(model.train_data_)
             check_outputs(inputs, outputs)
-        chosen = read_starts(starts) if starts is not None else test_starts(model.behavior_)
-        _check_cases(model, chosen, starts)
+        if robot is None:
+            chosen = read_starts(starts) if starts is not None else test_starts(model.behavior_)
+        else:
+            warn_provenance(model, robot, robot_name)
+            chosen = (
+                read_starts(starts, math.inf)
+                if starts is not None
+                else scaled_starts(test_starts(model.behavior_), robot)
+            )
+        _check_cases(model, chosen, starts, arena=robot is None)
         baselines = _baselines(baseline or [], model, data, seed)
         with progress() as bar:
-            task = bar.add_task(f"evaluate {model.behavior_} ({sim})", total=None)
+            task = bar.add_task(f"evaluate {model.behavior_} ({robot_name})", total=None)
             result = evaluate_model(
                 model,
                 chosen,
-                sim=sim,
+                sim=None if robot is not None else sim,
+                env=robot,
                 seed=seed,
                 noise=noise,
                 baselines=baselines,
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
-                keep_traces=report is not None,
+                keep_traces=report is not None or videos is not None,
                 push=pushed,
             )
         traces = result.pop("_traces", None)
+        if videos is not None and traces:
+            videos.mkdir(parents=True, exist_ok=True)
+            if robot is not None:
+                scene = robot
+            else:  # our robot: its sizes (kinematic: no physics needed to draw it)
+                from behavior_hmm.sim import make_env
+
+                scene = make_env("kinematic")
+            for i, (trace, _) in enumerate(traces["model"]):
+                start = ", ".join(f"{k} {v:g}" for k, v in trace.start.items())
+                write_video(
+                    trace,
+                    videos / f"case_{i:02d}.mp4",
+                    video_backend,
+                    scene,
+                    title=f"{model.behavior_} from {start}",
+                )
+            typer.echo(f"videos: {videos}/case_00.mp4 ... case_{len(traces['model']) - 1:02d}.mp4")
         text = json.dumps(result, indent=1, default=float)
         with all_or_none():
             if json_out is not None:
@@ -408,7 +534,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.evaluate._experiments import run_simple_experiment
         from behavior_hmm.viz import write_simple_report
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         check_noise(noise)
         check_outputs({"--config": config}, {}, folders={"-o": out})
@@ -417,9 +543,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             progress,
             f"experiment simple ({sim}, {name} preset)",
             run_simple_experiment,
-            sim,
-            seed,
-            noise,
+            sim=sim,
+            seed=seed,
+            noise=noise,
             sblm_params=params["SBLM"],
         )
         results["preset"] = name
@@ -427,6 +553,56 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             table = write_simple_report(results, out)
         typer.echo(table)
         typer.echo(f"results: {out}/results.json, figures and table.md")
+
+    @experiment_app.command("robot")
+    @wrap
+    def experiment_robot(
+        env: Annotated[
+            str,
+            typer.Option(
+                "--env",
+                help="The robot: a registered Gymnasium id, package.module:factory or "
+                "path/to/file.py:factory (docs/robots.md)",
+            ),
+        ],
+        out: OutFolder = Path("results/robot"),
+        env_kwargs: EnvKwargsOption = None,
+        seed: SeedOption = 0,
+        preset: PresetOption = None,
+        config: ConfigOption = None,
+        set_: SetOption = None,
+    ) -> None:
+        """Turn, approach and turn & approach on any robot, composed from its own components.
+
+        Our teacher demonstrates on the robot from the default grids scaled to it
+        (env.unwrapped.start_scale); the test starts are scaled the same way.
+        Example: behavior-hmm experiment robot --env behavior_hmm/Husky-v0 -o results/husky
+        """
+        from behavior_hmm._atomic import all_or_none
+        from behavior_hmm._paths import check_outputs
+        from behavior_hmm.evaluate._robot_experiment import run_robot_experiment
+        from behavior_hmm.viz import write_robot_report
+
+        check_seed(seed)
+        check_outputs({"--config": config}, {}, folders={"-o": out})
+        name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
+        robot, robot_name = open_env("mujoco", env, env_kwargs)
+        results = _with_progress(
+            progress,
+            f"experiment robot ({robot_name}, {name} preset)",
+            run_robot_experiment,
+            env=robot,
+            env_name=robot_name,
+            seed=seed,
+            sblm_params=params["SBLM"],
+            cblm_params=params["CBLM"],
+        )
+        results["preset"] = name
+        radius = getattr(robot.unwrapped, "object_radius", None)
+        with all_or_none():  # every file of the report, or none
+            table = write_robot_report(results, out, object_radius=radius)
+        typer.echo(table)
+        typer.echo(f"results: {out}/results.json, trajectories.png and table.md")
 
     @experiment_app.command("complex")
     @wrap
@@ -445,7 +621,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.evaluate._experiments import run_complex_experiment
         from behavior_hmm.viz import write_complex_report
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         check_noise(noise)
         check_outputs({"--config": config}, {}, folders={"-o": out})
@@ -454,9 +630,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             progress,
             f"experiment complex ({sim}, {name} preset)",
             run_complex_experiment,
-            sim,
-            seed,
-            noise,
+            sim=sim,
+            seed=seed,
+            noise=noise,
             sblm_params=params["SBLM"],
             cblm_params=params["CBLM"],
         )
@@ -492,7 +668,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.models._presets import departure as named_departure
         from behavior_hmm.viz._ablation import write_ablation_report
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         check_noise(noise)
         check_outputs({}, {}, folders={"-o": out})
@@ -505,9 +681,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             progress,
             f"experiment ablation ({sim})",
             run_ablation,
-            sim,
-            seed,
-            noise,
+            sim=sim,
+            seed=seed,
+            noise=noise,
             tasks=task or None,
             departures=departure or None,
         )
@@ -544,7 +720,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.evaluate._faults import fault_kind, run_faults
         from behavior_hmm.viz._faults import write_faults_report
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         for name in task or []:
             ablation_task(name)  # refuse bad names before any work
@@ -582,7 +758,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.teach import collect
         from behavior_hmm.viz._categories import write_categorization_report
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         check_outputs({}, {}, folders={"-o": out})
         train = collect("turn", sim=sim, seed=seed)
@@ -617,7 +793,7 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
         from behavior_hmm.teach import collect
         from behavior_hmm.viz import plot_generator_sweeps
 
-        _check_sim(sim)
+        check_sim(sim)
         check_seed(seed)
         if epochs < 1:
             raise ConfigError(f"--epochs must be an integer >= 1, got {epochs}")
@@ -669,36 +845,28 @@ def _with_progress(
     progress: Callable[[], Any],
     label: str,
     experiment: Callable[..., dict[str, Any]],
-    sim: str,
-    seed: int,
-    noise: float,
     **kwargs: Any,
 ) -> dict[str, Any]:
     """Run an experiment function under a progress bar (``kwargs`` passed on)."""
     with progress() as bar:
         task = bar.add_task(label, total=None)
-        return experiment(
-            sim=sim,
-            seed=seed,
-            noise=noise,
-            progress=lambda d, t: bar.update(task, completed=d, total=t),
-            **kwargs,
-        )
+        return experiment(progress=lambda d, t: bar.update(task, completed=d, total=t), **kwargs)
 
 
-def _check_cases(model: Any, starts: list[dict[str, float]], file: Path | None) -> None:
+def _check_cases(
+    model: Any, starts: list[dict[str, float]], file: Path | None, arena: bool = True
+) -> None:
     """Refuse, before the first case runs, any start the teacher cannot demonstrate or
-    whose goal (``goal_<channel>``) the model cannot take."""
+    whose goal (``goal_<channel>``) the model cannot take (``arena``: our arena's bounds)."""
     from behavior_hmm.evaluate import split_start
-    from behavior_hmm.teach import BEHAVIORS, complete_start, plan_phases
+    from behavior_hmm.teach import complete_start, plan_phases
 
     behavior = str(model.behavior_)
     for i, row in enumerate(starts):
         begin, goal = split_start(row)
         try:
-            full = complete_start(behavior, begin)
-            if behavior in BEHAVIORS:
-                plan_phases(behavior, full["angle"], full["distance"], goal.get("distance"))
+            full = complete_start(behavior, begin, None if arena else math.inf)
+            plan_phases(behavior, full["angle"], full["distance"], goal.get("distance"))
             if goal:
                 model.resolve_goal(goal)
         except ConfigError as err:

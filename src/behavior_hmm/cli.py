@@ -24,6 +24,7 @@ from typing import Annotated, Any, TypeVar
 
 import typer
 
+from behavior_hmm._cli_learn import EnvKwargsOption, EnvOption, check_sim, open_env
 from behavior_hmm.errors import BehaviorHMMError, ConfigError
 
 app = typer.Typer(
@@ -34,8 +35,6 @@ app = typer.Typer(
 )
 
 F = TypeVar("F", bound=Callable[..., Any])
-
-SIMS = ("mujoco", "kinematic")
 
 
 def _user_errors(func: F) -> F:
@@ -93,12 +92,6 @@ def max_noise() -> float:
     return min(limits)
 
 
-def _check_sim(sim: str) -> str:
-    if sim not in SIMS:
-        raise ConfigError(f"unknown simulator '{sim}'; choose one of {', '.join(SIMS)}")
-    return sim
-
-
 def _progress() -> Any:
     from rich.progress import (
         BarColumn,
@@ -125,17 +118,28 @@ def _collect_with_progress(
     sim: str,
     seed: int,
     noise: float,
+    env: Any = None,
+    env_name: str | None = None,
 ) -> Any:
     """Run the teacher from every start behind a progress bar (one final line when not a TTY)."""
     from behavior_hmm.teach import collect
 
     with _progress() as bar:
-        task = bar.add_task(f"collect {behavior} ({sim})", total=len(starts))
+        task = bar.add_task(f"collect {behavior} ({env_name or sim})", total=len(starts))
 
         def report(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
-        return collect(behavior, starts, sim=sim, seed=seed, noise=noise, progress=report)
+        return collect(
+            behavior,
+            starts,
+            sim=sim,
+            seed=seed,
+            noise=noise,
+            progress=report,
+            env=env,
+            env_name=env_name,
+        )
 
 
 @app.command()
@@ -156,33 +160,30 @@ def collect(
     noise: Annotated[
         float, typer.Option(help="Sensor noise: sigma x each channel's normalization range")
     ] = 0.0,
+    env: EnvOption = None,
+    env_kwargs: EnvKwargsOption = None,
 ) -> None:
     """Record s-curve demonstrations of a behavior into a Parquet dataset.
 
     Everything is checked before the first episode runs; on any error nothing is
     written and an existing OUT is left as it was.
     """
-    import difflib
     import math
 
     from behavior_hmm import data
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.errors import DatasetError
     from behavior_hmm.teach import (
-        BEHAVIORS,
+        behavior_spec,
         complete_start,
         default_starts,
         plan_phases,
         read_starts,
+        scaled_starts,
     )
 
-    if behavior not in BEHAVIORS:
-        close = difflib.get_close_matches(behavior, BEHAVIORS, n=1)
-        hint = f"did you mean '{close[0]}'? " if close else ""
-        raise ConfigError(
-            f"unknown behavior '{behavior}'; {hint}choose one of {', '.join(BEHAVIORS)}"
-        )
-    _check_sim(sim)
+    behavior_spec(behavior)  # an unknown behavior is refused first
+    check_sim(sim)
     if not math.isfinite(noise) or noise < 0:
         raise ConfigError(f"--noise must be a finite number >= 0, got {noise}")
     if noise > max_noise():
@@ -193,11 +194,17 @@ def collect(
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
     check_outputs({"--starts": starts}, {"-o": out})
-    chosen = read_starts(starts) if starts is not None else default_starts(behavior)
+    robot, robot_name = open_env(sim, env, env_kwargs) if env is not None else (None, None)
+    far = math.inf if robot is not None else None
+    if starts is not None:
+        chosen = read_starts(starts) if far is None else read_starts(starts, far)
+    else:
+        chosen = default_starts(behavior)
+        chosen = chosen if robot is None else scaled_starts(chosen, robot)
     # Check every start against the behavior now, not after minutes of simulation.
     for i, start in enumerate(chosen):
         try:
-            full = complete_start(behavior, start)
+            full = complete_start(behavior, start, far)
             plan_phases(behavior, full["angle"], full["distance"], full.get("goal_distance"))
         except ConfigError as err:
             values = ", ".join(f"{key} {value:g}" for key, value in start.items())
@@ -207,7 +214,7 @@ def collect(
                 field=None if "distance" in start else "distance",
             ) from None
     try:
-        dataset = _collect_with_progress(behavior, chosen, sim, seed, noise)
+        dataset = _collect_with_progress(behavior, chosen, sim, seed, noise, robot, robot_name)
     except DatasetError as err:  # the recorded data failed validation: say which data
         hint = f"; nothing written to {out}" + (" (try a smaller --noise)" if noise else "")
         raise DatasetError(
@@ -298,6 +305,7 @@ def _model_summary(path: Path) -> dict[str, Any]:
         "default_goal": dict(model.default_goal_),
         "max_steps": int(model.max_steps_),
         "train_data": model.train_data_,
+        "provenance": dict(getattr(model, "provenance_", None) or {}),
     }
     if model.kind == "SBLM":
         summary["primitives"] = int(model.primitives_.n_categories_)
@@ -408,7 +416,10 @@ def demo(
     Collects the default turn, approach and turn & approach demonstrations, learns turn
     {angle} and approach {distance, angle} (SBLM), composes them into turn & approach
     (CBLM, components untouched), scores each on its 15 test starts against the teacher
-    (with the all-zero floor beside it) and plots the data and one run of each.
+    (with the all-zero floor beside it), and writes the data's plots, an HTML report per
+    behavior (every run plotted), and one run of each as a plot and a top-down video
+    (GIF; Pillow comes with matplotlib).
+    Example: behavior-hmm demo --sim kinematic -o demo-output
     """
     import time
 
@@ -418,9 +429,14 @@ def demo(
     from behavior_hmm.models import CBLM, SBLM
     from behavior_hmm.sim import make_env
     from behavior_hmm.teach import default_starts, test_starts
-    from behavior_hmm.viz import plot_demonstrations, plot_trace
+    from behavior_hmm.viz import (
+        plot_demonstrations,
+        plot_trace,
+        render_trace,
+        write_evaluation_report,
+    )
 
-    _check_sim(sim)
+    check_sim(sim)
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
     check_outputs({}, {}, folders={"-o": out})
@@ -440,6 +456,7 @@ def demo(
     thesis = {"turn": 90.9, "approach": 82.6, "turn-approach": 79.8}
     env = make_env(sim)
     rows = []
+    videos: list[Path] = []
     for behavior, model in models.items():
         model.save(out / f"{behavior}.bhmm")
         starts = test_starts(behavior)
@@ -449,10 +466,20 @@ def demo(
             def report(done: int, total: int, task: Any = task, bar: Any = bar) -> None:
                 bar.update(task, completed=done)
 
-            result = evaluate_model(model, starts, sim=sim, seed=seed, progress=report)
-        first = starts[len(starts) // 2]
+            result = evaluate_model(
+                model, starts, sim=sim, seed=seed, progress=report, keep_traces=True
+            )
+        write_evaluation_report(result, result.pop("_traces"), out / f"{behavior}_report.html")
+        # the run shown: the middle test start, one that needs a turn for turn & approach
+        turning = [s for s in starts if abs(s.get("angle", 0.0)) > 30.0] or starts
+        first = turning[len(turning) // 2]
         trace = model.generate(env, start=_full_start(behavior, first), seed=seed)
         plot_trace(trace, out / f"{behavior}_run.png")
+        where = ", ".join(f"{k} {v:g}" for k, v in trace.start.items())
+        render_trace(
+            trace, out / f"{behavior}_run.gif", robot=env, title=f"{behavior} from {where}"
+        )
+        videos.append(out / f"{behavior}_run.gif")
         rows.append(
             (
                 behavior,
@@ -476,7 +503,8 @@ def demo(
     for row in rows:
         table.add_row(*[Text(str(x)) for x in row])  # plain text, not rich markup
     Console().print(table)
-    typer.echo(f"output (datasets, models, plots): {out}")
+    typer.echo(f"videos: {', '.join(str(v) for v in videos)}")
+    typer.echo(f"reports: {out}/<behavior>_report.html; datasets, models and plots: {out}")
 
 
 def _full_start(behavior: str, start: dict[str, float]) -> dict[str, float]:

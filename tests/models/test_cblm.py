@@ -202,7 +202,7 @@ def test_a_start_off_the_bearing_turns_before_approaching(
 
 def _count_calls(monkeypatch: pytest.MonkeyPatch, name: str) -> list[int]:
     """Count calls of ComplexController.<name> (still running the original)."""
-    from behavior_hmm.runtime._complex import ComplexController
+    from behavior_hmm.models._complex_policy import ComplexPolicy as ComplexController
 
     calls = [0]
     original = getattr(ComplexController, name)

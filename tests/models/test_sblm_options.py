@@ -12,8 +12,8 @@ from behavior_hmm.cobart import suggest_dcm_scale
 from behavior_hmm.data import Dataset
 from behavior_hmm.errors import ConfigError, ModelFileError
 from behavior_hmm.models import SBLM
+from behavior_hmm.models import perform as run_behavior
 from behavior_hmm.models._sblm import margin_rows
-from behavior_hmm.runtime import run_behavior
 
 
 def test_margin_rows_widen_each_segment_within_its_episode() -> None:
@@ -36,7 +36,7 @@ def test_onset_clock_is_an_input_that_saturates(turn_data: Dataset) -> None:
     assert model.generators_.n_features_in_ == 10 + 1
     x = model.pipeline_.transform(turn_data)
     y = turn_data.commands / model.command_scale_
-    clock = model._features(x, y, turn_data.lengths, 10, 1.0)[:, -1]
+    clock = model.feature_layout(1, 10).offline(x, y, turn_data.lengths)[:, -1]
     first = turn_data.lengths[0]
     np.testing.assert_allclose(
         clock[:10], [0, 1 / 8, 2 / 8, 3 / 8, 4 / 8, 5 / 8, 6 / 8, 7 / 8, 1, 1]

@@ -21,14 +21,9 @@ from behavior_hmm.data import SENSOR_CHANNELS, Dataset
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.evaluate._baselines import BehaviorCloning
 from behavior_hmm.models import CBLM, SBLM
-from behavior_hmm.runtime import (
-    DEFAULT_FAULT_HOLD_S,
-    SensorHold,
-    channels_read,
-    make_controller,
-    run_behavior,
-    run_controller,
-)
+from behavior_hmm.models._policy import make_policy, perform
+from behavior_hmm.models._policy import read_channels as channels_read
+from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, SensorHold, run_policy
 from behavior_hmm.sim import make_env
 from behavior_hmm.teach import collect
 
@@ -134,11 +129,12 @@ def test_controller_error_stops_the_wheels(turn_model: SBLM) -> None:
     class Breaks:
         def __init__(self, inner: Any) -> None:
             self.inner, self.goal, self.n = inner, inner.goal, 0
+            self.channels = inner.channels
 
         def reset(self) -> None:
             self.inner.reset()
 
-        def step(self, reading: np.ndarray) -> Any:
+        def step(self, reading: Mapping[str, float]) -> Any:
             self.n += 1
             if self.n > 20:
                 raise ValueError("controller bug")
@@ -146,7 +142,7 @@ def test_controller_error_stops_the_wheels(turn_model: SBLM) -> None:
 
     env = faulty_env()
     with pytest.raises(ValueError, match="controller bug"):
-        run_controller(Breaks(make_controller(turn_model, None)), env, start=TURN_START)
+        run_policy(Breaks(make_policy(turn_model, None)), env, start=TURN_START)
     assert len(env.actions) == 21  # 20 commands, then the stop
     assert np.any(env.actions[-2] != 0.0)
     assert_stopped(env)
@@ -175,7 +171,7 @@ def test_channels_read() -> None:
 
 
 def test_sensor_hold_counts_steps() -> None:
-    hold = SensorHold(("angle",), hold_steps=2)
+    hold = SensorHold(SENSOR_CHANNELS, ("angle",), hold_steps=2)
     good = np.array([0.5, 0.0, 10.0, 0.0])
     nan_angle = np.array([np.nan, 0.0, np.nan, 1.0])  # distance is not guarded
     assert hold(good)[1] == 0
@@ -184,7 +180,7 @@ def test_sensor_hold_counts_steps() -> None:
         assert held == 1 and seen[2] == 10.0 and np.isnan(seen[0]) and not hold.faulted
     hold(nan_angle)
     assert hold.faulted == ["angle"]
-    first = SensorHold(("angle",), hold_steps=5)
+    first = SensorHold(SENSOR_CHANNELS, ("angle",), hold_steps=5)
     first(nan_angle)  # no good value yet: a fault at once
     assert first.faulted == ["angle"]
 
@@ -300,7 +296,7 @@ def test_one_percent_random_nan_steps(
 
 
 def test_behavior_cloning_has_the_same_protection(bc_model: BehaviorCloning) -> None:
-    assert channels_read(bc_model) == ("angle",)
+    assert bc_model.policy().channels == ("angle",)
     env = faulty_env({"angle": [40]})
     trace = bc_model.generate(env, start=TURN_START, seed=0)
     assert trace.goal_reached and trace.held_readings == 1
@@ -331,7 +327,7 @@ def test_complex_behavior_guards_its_components_channels(turn_model: SBLM) -> No
     trace = cblm.generate(env, start=start, seed=0)
     assert trace.reason == "goal" and trace.held_readings == 6
     env = faulty_env({"angular_velocity": range(60, 100_000)})
-    trace = run_behavior(cblm, env, start=start, seed=0)
+    trace = perform(cblm, env, start=start, seed=0)
     assert trace.reason == "sensor_fault" and len(trace) == 60 + HOLD + 1
     assert_stopped(env)
 
@@ -340,19 +336,18 @@ def test_the_controller_never_sees_a_nan_on_a_read_channel(turn_model: SBLM) -> 
     class Spy:
         def __init__(self, inner: Any) -> None:
             self.inner, self.goal, self.seen = inner, inner.goal, []
+            self.channels = inner.channels
 
         def reset(self) -> None:
             self.inner.reset()
 
-        def step(self, reading: np.ndarray) -> Any:
-            self.seen.append(reading.copy())
+        def step(self, reading: Mapping[str, float]) -> Any:
+            self.seen.append([reading[c] for c in SENSOR_CHANNELS])
             return self.inner.step(reading)
 
-    spy = Spy(make_controller(turn_model, None))
+    spy = Spy(make_policy(turn_model, None))
     env = faulty_env({"angle": range(30, 34), "distance": range(1, 100_000)})
-    trace = run_controller(
-        spy, env, start=TURN_START, read_channels=channels_read(turn_model), max_steps=500
-    )
+    trace = run_policy(spy, env, start=TURN_START, max_steps=500)
     seen = np.asarray(spy.seen)
     assert trace.reason == "goal" and trace.held_readings == 4
     assert np.all(np.isfinite(seen[:, 1:])) and np.all(np.isnan(seen[1:, 0]))

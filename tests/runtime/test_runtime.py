@@ -10,7 +10,7 @@ import pytest
 from behavior_hmm.data import ANGLE_TOLERANCE_DEG, SENSOR_CHANNELS
 from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.models import SBLM
-from behavior_hmm.runtime import run_behavior
+from behavior_hmm.models import perform as run_behavior
 
 ANGLE = SENSOR_CHANNELS.index("angle")
 

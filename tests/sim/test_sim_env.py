@@ -81,9 +81,23 @@ def test_registered_ids_make_the_right_backend() -> None:
         assert isinstance(env.unwrapped, KheperaEnv)
         assert env.unwrapped.backend == backend
         assert env.unwrapped.noise == 0.01
-        obs, _ = env.reset(seed=3, options={"angle": 45.0})
-        assert obs.shape == (4,)
+        # the robot contract: a Dict of (1,) arrays by channel, info's truth alike
+        obs, info = env.reset(seed=3, options={"angle": 45.0})
+        assert list(obs) == list(SENSOR_CHANNELS) and obs["angle"].shape == (1,)
+        assert info["true_observation"]["angle"][0] == pytest.approx(45.0)
+        assert env.unwrapped.control_period == 0.016
+        assert set(env.unwrapped.robot_spec) == {"wheel_radius", "track_width", "max_wheel_speed"}
         env.close()
+
+
+def test_make_honors_max_episode_steps_beyond_the_default() -> None:
+    env = gymnasium.make(KINEMATIC_ENV_ID, max_episode_steps=4100)
+    env.reset(seed=0)
+    truncated = [env.step(np.zeros(2))[3] for _ in range(4100)]
+    assert not any(truncated[:-1]) and truncated[-1]
+    env = gymnasium.make(KINEMATIC_ENV_ID, max_episode_steps=3)
+    env.reset(seed=0)
+    assert [env.step(np.zeros(2))[3] for _ in range(3)] == [False, False, True]
 
 
 def test_reimport_does_not_error() -> None:

@@ -13,13 +13,17 @@ from behavior_hmm.data._bags import import_bags
 from behavior_hmm.data._channels import (
     ANGLE_TOLERANCE_DEG,
     ARENA_MAX_DISTANCE,
+    CHANNELS,
     COMMAND_CHANNELS,
     CONTROL_PERIOD,
     DISTANCE_TOLERANCE_M,
     SENSOR_CHANNELS,
     SENSOR_RANGES,
     UNITS,
+    ChannelSpec,
+    channel_from_metadata,
     noise_std,
+    register_channel,
 )
 from behavior_hmm.data._csv import import_csv
 from behavior_hmm.data._dataset import NUMERIC_CHANNELS, Dataset, Episode
@@ -49,6 +53,7 @@ from behavior_hmm.data._validate import (
     REQUIRED_COLUMNS,
     SCHEMA_VERSION,
     VALUE_BOUNDS,
+    declared_channels,
     validate,
 )
 
@@ -57,6 +62,7 @@ __all__ = [
     "ANGLE_TOLERANCE_DEG",
     "ARENA_MAX_DISTANCE",
     "BEHAVIOR_NAME_PATTERN",
+    "CHANNELS",
     "COMMAND_CHANNELS",
     "CONTROL_PERIOD",
     "DEFAULT_CUTOFF_HZ",
@@ -72,6 +78,7 @@ __all__ = [
     "UNITS",
     "UNIT_FACTORS",
     "VALUE_BOUNDS",
+    "ChannelSpec",
     "CommandScaler",
     "DataImportWarning",
     "Dataset",
@@ -82,6 +89,8 @@ __all__ = [
     "OnlinePipeline",
     "SamplingWarning",
     "SignalPipeline",
+    "channel_from_metadata",
+    "declared_channels",
     "derive_velocities",
     "export_lerobot",
     "import_bags",
@@ -89,6 +98,7 @@ __all__ = [
     "import_lerobot",
     "noise_std",
     "read",
+    "register_channel",
     "resample",
     "summarize",
     "validate",

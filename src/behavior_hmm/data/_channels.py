@@ -1,53 +1,295 @@
-"""The data contract's channels, units and default normalization ranges (DESIGN §4)."""
+"""Every channel of the data contract, declared once (DESIGN §4, §9).
+
+A :class:`ChannelSpec` says what one sensor or command channel is: its unit, its
+normalization range, its goal tolerance, whether it wraps (an angle), the units an
+imported log may use, the range a value must lie in to be believed, and its plot label.
+Every other table of the package (``SENSOR_CHANNELS``, ``UNITS``, ``SENSOR_RANGES``,
+the validator's bounds, the importers' unit factors, the filter's angle channels, the
+goal tolerances, the plot labels) is derived from :data:`CHANNELS`.
+
+A robot's own sensor channels (e.g. eight infrared proximity readings) are declared
+the same way, in a dataset's metadata (``"channels": [{"name": ..., "unit": ...,
+"range": [lo, hi]}, ...]``, see :func:`channel_from_metadata`), or from Python with
+:func:`register_channel`.
+"""
 
 from __future__ import annotations
 
-from typing import Final
+import math
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Final, Literal
 
-#: Control period of every recording and of closed-loop generation (seconds).
+from behavior_hmm.errors import ConfigError
+
+#: Control period of every recording and of closed-loop generation on our robots (s).
 CONTROL_PERIOD: Final[float] = 0.016
 
-#: Sensor channels in their canonical order (the simulator's observation order).
-SENSOR_CHANNELS: Final[tuple[str, ...]] = (
-    "distance",
-    "linear_velocity",
-    "angle",
-    "angular_velocity",
+_RPM: Final[float] = 2.0 * math.pi / 60.0
+_DEG: Final[float] = math.pi / 180.0
+#: A channel name: a lowercase identifier.
+CHANNEL_NAME: Final[re.Pattern[str]] = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """One channel: what it measures and how the package treats it.
+
+    Parameters
+    ----------
+    name
+        Column name (lowercase identifier).
+    unit
+        Physical unit of the stored values (e.g. ``"m"``, ``"deg/s"``, ``"rad/s"``).
+    range
+        ``(lo, hi)`` in ``unit``: mapped onto [-1, 1] by normalization; sensor noise
+        ``--noise SIGMA`` has standard deviation ``SIGMA * (hi - lo)``.
+    kind
+        ``"sensor"`` or ``"command"``.
+    tolerance
+        Goal tolerance in ``unit`` (a goal on this channel is reached within it);
+        ``None``: the channel cannot be a goal.
+    wraps
+        True for an angle in degrees, wrapped into (-180, 180]: differences and the
+        low-pass filter wrap too.
+    bounds
+        Values outside ``(lo, hi)`` are refused on import as absurd (wrong units?);
+        default ten times the normalization range around its centre.
+    units
+        Units an imported log may use for this channel, with the factor converting a
+        value in that unit into ``unit``; ``unit`` itself is always accepted.
+    label
+        Human-readable name for plots and reports (default: ``name`` with spaces).
+    """
+
+    name: str
+    unit: str
+    range: tuple[float, float]
+    kind: Literal["sensor", "command"] = "sensor"
+    tolerance: float | None = None
+    wraps: bool = False
+    bounds: tuple[float, float] | None = None
+    units: Mapping[str, float] = field(default_factory=dict)
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not CHANNEL_NAME.match(self.name):
+            raise ConfigError(
+                f"channel name {self.name!r} must be a lowercase identifier (a-z, 0-9, _)"
+            )
+        if self.name in ("t", "episode", "behavior"):
+            raise ConfigError(f"'{self.name}' is a reserved column, not a channel")
+        if self.kind not in ("sensor", "command"):
+            raise ConfigError(f"channel {self.name}: kind must be 'sensor' or 'command'")
+        try:
+            lo, hi = (float(v) for v in self.range)
+        except (TypeError, ValueError):
+            raise ConfigError(
+                f"channel {self.name}: range must be [lo, hi], got {self.range!r}"
+            ) from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError(f"channel {self.name}: range must satisfy lo < hi, got {lo}, {hi}")
+        object.__setattr__(self, "range", (lo, hi))
+        if self.tolerance is not None:
+            tol = float(self.tolerance)
+            if not (math.isfinite(tol) and tol > 0):
+                raise ConfigError(f"channel {self.name}: tolerance must be > 0, got {tol}")
+            object.__setattr__(self, "tolerance", tol)
+        if self.bounds is None:
+            mid, half = (lo + hi) / 2.0, (hi - lo) / 2.0
+            bounds = (-180.0, 180.0) if self.wraps else (mid - 10.0 * half, mid + 10.0 * half)
+            object.__setattr__(self, "bounds", bounds)
+        units = {self.unit: 1.0, **{str(k): float(v) for k, v in dict(self.units).items()}}
+        object.__setattr__(self, "units", units)
+        if not self.label:
+            object.__setattr__(self, "label", self.name.replace("_", " "))
+
+    @property
+    def axis_label(self) -> str:
+        """``"label (unit)"`` for a plot axis."""
+        return f"{self.label} ({self.unit})"
+
+    def error(self, value: float, target: float) -> float:
+        """Signed ``value - target`` in the channel's unit (wrapped for an angle)."""
+        diff = float(value) - float(target)
+        if self.wraps:
+            diff = (diff + 180.0) % 360.0 - 180.0
+        return diff
+
+    def to_metadata(self) -> dict[str, Any]:
+        """The JSON form a dataset's metadata carries (see :func:`channel_from_metadata`)."""
+        out: dict[str, Any] = {"name": self.name, "unit": self.unit, "range": list(self.range)}
+        if self.kind != "sensor":
+            out["kind"] = self.kind
+        if self.tolerance is not None:
+            out["tolerance"] = self.tolerance
+        if self.wraps:
+            out["wraps"] = True
+        if self.label != self.name.replace("_", " "):
+            out["label"] = self.label
+        return out
+
+
+_SPECS: tuple[ChannelSpec, ...] = (
+    ChannelSpec(
+        "distance",
+        "m",
+        (0.0, 1.2),
+        tolerance=0.01,
+        bounds=(-0.5, 10.0),
+        units={"cm": 1e-2, "mm": 1e-3},
+        label="distance to the object",
+    ),
+    ChannelSpec(
+        "linear_velocity",
+        "m/s",
+        (-0.15, 0.15),
+        tolerance=0.01,
+        bounds=(-5.0, 5.0),
+        units={"cm/s": 1e-2, "mm/s": 1e-3},
+        label="linear velocity",
+    ),
+    ChannelSpec(
+        "angle",
+        "deg",
+        (-180.0, 180.0),
+        tolerance=3.0,
+        wraps=True,
+        units={"rad": 180.0 / math.pi},
+        label="bearing of the object",
+    ),
+    ChannelSpec(
+        "angular_velocity",
+        "deg/s",
+        (-90.0, 90.0),
+        tolerance=5.0,
+        bounds=(-3600.0, 3600.0),
+        units={"rad/s": 180.0 / math.pi},
+        label="angular velocity",
+    ),
+    ChannelSpec(
+        "left",
+        "rad/s",
+        (-10.0, 10.0),
+        kind="command",
+        bounds=(-1000.0, 1000.0),
+        units={"rpm": _RPM, "deg/s": _DEG},
+        label="left wheel",
+    ),
+    ChannelSpec(
+        "right",
+        "rad/s",
+        (-10.0, 10.0),
+        kind="command",
+        bounds=(-1000.0, 1000.0),
+        units={"rpm": _RPM, "deg/s": _DEG},
+        label="right wheel",
+    ),
 )
 
-#: Motor command channels (wheel speeds, rad/s), in order.
-COMMAND_CHANNELS: Final[tuple[str, ...]] = ("left", "right")
+#: Every known channel by name: the four sensors and two wheel commands of the data
+#: contract, plus any registered with :func:`register_channel`.
+CHANNELS: dict[str, ChannelSpec] = {spec.name: spec for spec in _SPECS}
 
-#: Physical unit of every channel.
-UNITS: Final[dict[str, str]] = {
-    "t": "s",
-    "distance": "m",
-    "linear_velocity": "m/s",
-    "angle": "deg",
-    "angular_velocity": "deg/s",
-    "left": "rad/s",
-    "right": "rad/s",
-}
+#: The data contract's sensor channels in their canonical order (our simulator's order).
+SENSOR_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind == "sensor")
+
+#: Motor command channels (wheel speeds, rad/s), in order.
+COMMAND_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind == "command")
+
+#: Physical unit of every channel (and of the time column).
+UNITS: Final[dict[str, str]] = {"t": "s", **{s.name: s.unit for s in _SPECS}}
 
 #: Default normalization range (physical units) of each sensor channel; mapped onto [-1, 1].
 #: Sensor noise ``--noise SIGMA`` has standard deviation ``SIGMA * (hi - lo)`` per channel.
 SENSOR_RANGES: Final[dict[str, tuple[float, float]]] = {
-    "distance": (0.0, 1.2),
-    "linear_velocity": (-0.15, 0.15),
-    "angle": (-180.0, 180.0),
-    "angular_velocity": (-90.0, 90.0),
+    s.name: s.range for s in _SPECS if s.kind == "sensor"
 }
+
+#: Goal tolerance (physical units) of every channel that can be a goal (DESIGN §5).
+TOLERANCES: Final[dict[str, float]] = {
+    s.name: s.tolerance for s in _SPECS if s.tolerance is not None
+}
+
+#: Physical goal tolerances used by the teacher and the generation stop rule (DESIGN §5).
+ANGLE_TOLERANCE_DEG: Final[float] = TOLERANCES["angle"]
+DISTANCE_TOLERANCE_M: Final[float] = TOLERANCES["distance"]
 
 #: Largest start distance (m) the arena allows; the object sits at the arena's centre.
 ARENA_MAX_DISTANCE: Final[float] = 1.2
 
-#: Physical goal tolerances used by demonstrator and generation stop rule (DESIGN §5).
-ANGLE_TOLERANCE_DEG: Final[float] = 3.0
-DISTANCE_TOLERANCE_M: Final[float] = 0.01
+
+def register_channel(spec: ChannelSpec) -> ChannelSpec:
+    """Declare a robot's own channel once, for every dataset, model and plot.
+
+    Re-registering an equal spec is harmless; a different spec under a known name is
+    refused (a channel means one thing).
+    """
+    known = CHANNELS.get(spec.name)
+    if known is not None and known != spec:
+        raise ConfigError(f"channel '{spec.name}' is already declared differently: {known}")
+    CHANNELS[spec.name] = spec
+    return spec
 
 
-def noise_std(sigma: float) -> dict[str, float]:
+def channel_from_metadata(entry: Mapping[str, Any]) -> ChannelSpec:
+    """A channel declared in a dataset's metadata: ``{"name", "unit", "range", ...}``."""
+    if not isinstance(entry, Mapping):
+        raise ConfigError(f"a channel declaration must be a mapping, got {entry!r}")
+    unknown = set(entry) - {"name", "unit", "range", "kind", "tolerance", "wraps", "label"}
+    if unknown:
+        raise ConfigError(f"unknown key(s) {', '.join(sorted(unknown))} in channel {entry!r}")
+    for key in ("name", "unit", "range"):
+        if key not in entry:
+            raise ConfigError(f"channel declaration {dict(entry)!r} needs '{key}'")
+    rng = entry["range"]
+    if not isinstance(rng, list | tuple) or len(rng) != 2:
+        raise ConfigError(f"channel {entry['name']!r}: range must be [lo, hi], got {rng!r}")
+    return ChannelSpec(
+        name=str(entry["name"]),
+        unit=str(entry["unit"]),
+        range=(float(rng[0]), float(rng[1])),
+        kind=entry.get("kind", "sensor"),
+        tolerance=entry.get("tolerance"),
+        wraps=bool(entry.get("wraps", False)),
+        label=str(entry.get("label", "")),
+    )
+
+
+def channel(name: str, extra: Iterable[ChannelSpec] = ()) -> ChannelSpec:
+    """The spec of ``name``: one of ``extra`` (e.g. a dataset's own) or a known channel."""
+    for spec in extra:
+        if spec.name == name:
+            return spec
+    try:
+        return CHANNELS[name]
+    except KeyError:
+        raise ConfigError(
+            f"unknown channel '{name}' (known: {', '.join(CHANNELS)}; declare a robot's own "
+            "channel in the dataset's metadata or with register_channel)"
+        ) from None
+
+
+def within_tolerance(
+    values: Mapping[str, float], goal: Mapping[str, float], scale: float = 1.0
+) -> bool:
+    """True when every goal channel of ``values`` lies within ``scale`` times its tolerance."""
+    for name, target in goal.items():
+        spec = CHANNELS[name]
+        tol = spec.tolerance
+        if tol is None:
+            raise ConfigError(f"channel '{name}' has no goal tolerance; it cannot be a goal")
+        if abs(spec.error(values[name], target)) > scale * tol:
+            return False
+    return True
+
+
+def noise_std(
+    sigma: float, ranges: Mapping[str, tuple[float, float]] | None = None
+) -> dict[str, float]:
     """Per-channel standard deviation (physical units) of ``--noise sigma``."""
     if not sigma >= 0.0:
         raise ValueError(f"noise sigma must be >= 0, got {sigma}")
-    return {name: sigma * (hi - lo) for name, (lo, hi) in SENSOR_RANGES.items()}
+    table = SENSOR_RANGES if ranges is None else ranges
+    return {name: sigma * (hi - lo) for name, (lo, hi) in table.items()}

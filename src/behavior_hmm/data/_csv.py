@@ -11,7 +11,7 @@ import csv
 import io
 import os
 import re
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -21,13 +21,17 @@ import pyarrow.compute as pc
 import pyarrow.csv as pa_csv
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import CONTROL_PERIOD
+from behavior_hmm.data._channels import CONTROL_PERIOD, ChannelSpec, channel_from_metadata
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._transform import (
     DERIVABLE,
+    _rename_episode,
     check_units_of_derived,
     finish,
     parse_derive,
+)
+from behavior_hmm.data._transform import (
+    resample as resample_columns,
 )
 from behavior_hmm.data._units import (
     MAX_UNWRAPPED_ANGLE,
@@ -38,6 +42,8 @@ from behavior_hmm.data._validate import (
     FLOAT_COLUMNS,
     OPTIONAL_COLUMNS,
     REQUIRED_COLUMNS,
+    check_table,
+    declared_channels,
     suggest,
 )
 from behavior_hmm.errors import ConfigError, DatasetError
@@ -48,6 +54,9 @@ _OURS = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS)
 _NUMBER_RE = r"(?i)^[+-]?((\d+\.?\d*|\.\d+)(e[+-]?\d+)?|nan|inf|infinity)$"
 
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
+
+#: How to declare a column of the log as a robot's own sensor channel.
+_DECLARE = "declare a robot's own sensor channel with --channel NAME:UNIT:LO:HI"
 
 
 def _read_text(p: Path, file: str) -> str:
@@ -157,16 +166,19 @@ def _resolve_header(
     drop: Collection[str],
     derive: Collection[str],
     file: str,
+    extra: Sequence[str] = (),
 ) -> dict[str, int]:
     """Our column name -> index of the CSV column that holds it.
 
-    Every unexpected column is named in one line; so is every missing one.
+    Every unexpected column is named in one line; so is every missing one. ``extra``
+    are the declared channels: ours too, and required.
     """
+    ours_all = (*_OURS, *extra)
     for ours in mapping:
-        if ours not in _OURS:
+        if ours not in ours_all:
             raise ConfigError(
-                f"mapping names unknown column '{ours}' (columns: {', '.join(_OURS)})"
-                f"{suggest(ours, _OURS)}"
+                f"mapping names unknown column '{ours}' (columns: {', '.join(ours_all)})"
+                f"{suggest(ours, ours_all)}"
             )
     theirs_to_ours: dict[str, str] = {}
     for ours, theirs in mapping.items():
@@ -202,7 +214,7 @@ def _resolve_header(
                 field=ours,
             )
         index[ours] = i
-        if ours not in _OURS:
+        if ours not in ours_all:
             unknown.append(ours)
     for name in derive:
         if name in index:
@@ -212,22 +224,24 @@ def _resolve_header(
             )
     required = [c for c in REQUIRED_COLUMNS if c != "episode" and c not in derive]
     missing = [c for c in required if c not in index]
+    missing_extra = [c for c in extra if c not in index]
     if len(unknown) == 1:
         name = unknown[0]
-        hint = suggest(name, missing or _OURS)
+        hint = suggest(name, missing + missing_extra or ours_all)
+        expected = f" (expected columns: {', '.join(ours_all)}; or {_DECLARE})"
         raise DatasetError(
-            f"unexpected column{hint or ' (expected columns: ' + ', '.join(_OURS) + ')'}",
+            f"unexpected column{hint + f' (or {_DECLARE})' if hint else expected}",
             file=file,
             field=name,
         )
     if unknown:
         described = []
         for name in unknown:
-            close = suggest(name, missing or _OURS).removeprefix("; ")
+            close = suggest(name, missing + missing_extra or ours_all).removeprefix("; ")
             described.append(f"'{name}'" + (f" ({close})" if close else ""))
         raise DatasetError(
             f"unexpected columns {', '.join(described)}: map them with --map OURS=THEIRS or "
-            f"ignore them with --drop (expected columns: {', '.join(_OURS)})",
+            f"ignore them with --drop (expected columns: {', '.join(ours_all)}; or {_DECLARE})",
             file=file,
         )
     derivable = [c for c in missing if c in DERIVABLE]
@@ -247,6 +261,14 @@ def _resolve_header(
             f"missing columns {', '.join(repr(m) for m in missing)} "
             f"(a dataset needs: {', '.join(REQUIRED_COLUMNS)}){hint}",
             file=file,
+        )
+    if missing_extra:
+        name = missing_extra[0]
+        raise DatasetError(
+            f"missing column of a declared channel (the file has no '{name}' column: map "
+            f"one with --map {name}=THEIRS or do not declare it){suggest(name, header)}",
+            file=file,
+            field=name,
         )
     return index
 
@@ -366,6 +388,7 @@ def import_csv(
     derive: Collection[str] | str = (),
     resample: bool = False,
     period: float = CONTROL_PERIOD,
+    channels: Sequence[ChannelSpec | Mapping[str, Any]] | None = None,
 ) -> Dataset:
     """Read a user's CSV log into a validated :class:`Dataset`.
 
@@ -407,6 +430,13 @@ def import_csv(
         period by more than 2 % raises a :class:`SamplingWarning` (a warning).
     period
         The resampling period (s).
+    channels
+        A robot's own sensor channels the file holds besides ours (e.g. eight infrared
+        proximity readings): :class:`ChannelSpec` objects or declarations ``{"name":
+        "ir0", "unit": "m", "range": [0, 0.1]}``. Their columns are imported in the
+        declared units (no conversion), checked like ours (finite, within the spec's
+        ``bounds``), and declared in ``metadata["channels"]`` (after any the given
+        ``metadata`` declares already).
 
     Episode ids may be integers or names (``run-a``); names become ids 0, 1, ... in
     order of appearance and are kept in ``metadata["source"]["episode_ids"]``.
@@ -416,14 +446,21 @@ def import_csv(
     DatasetError
         For anything wrong with the file (naming file, episode, row, field, line).
     ConfigError
-        For an unknown column name in ``mapping`` or ``units`` or an unknown unit.
+        For an unknown column name in ``mapping`` or ``units``, an unknown unit, or a
+        malformed channel declaration.
     """
     file = str(path)
     p = Path(path)
     mapping = dict(mapping or {})
     units = dict(units or {})
     derived = parse_derive(derive)
-    factors = {name: unit_factor(name, unit) for name, unit in units.items()}
+    md = dict(metadata or {})
+    extras = _extra_channels(md, channels, file)
+    extra_names = [spec.name for spec in extras]
+    factors = {
+        name: _extra_unit(spec, unit) if (spec := _find(extras, name)) else unit_factor(name, unit)
+        for name, unit in units.items()
+    }
     check_units_of_derived(units, derived)
     if len(delimiter) != 1:
         raise ConfigError(f"delimiter must be one character, got {delimiter!r}")
@@ -433,7 +470,7 @@ def import_csv(
         raise DatasetError("is a directory, not a CSV file", file=file)
     text = _read_text(p, file)
     header, body, lines = _records(text, delimiter, file)
-    index = _resolve_header(header, mapping, set(drop), derived, file)
+    index = _resolve_header(header, mapping, set(drop), derived, file, extra_names)
     table = _parse_table(body, len(header), delimiter, '"' in text, file)
     if table.num_rows != len(lines) + 1:
         raise DatasetError(
@@ -457,7 +494,7 @@ def import_csv(
     else:
         episode = np.zeros(n, dtype=np.int64)
     columns: dict[str, NDArray[Any]] = {"episode": episode}
-    for name in FLOAT_COLUMNS:
+    for name in (*FLOAT_COLUMNS, *extra_names):
         if name in derived:
             continue
         values = _floats(cells(name), name, file, lines, episode, names)
@@ -479,11 +516,16 @@ def import_csv(
             names,
         )
 
-    md = dict(metadata or {})
     source: dict[str, Any] = {"format": "csv", "file": p.name, "mapping": mapping, "units": units}
     if names is not None:
         source["episode_ids"] = names
     md.setdefault("source", source)
+    if extras:
+        md["channels"] = [spec.to_metadata() for spec in extras]
+        if resample:
+            return _finish_resampling_extras(
+                columns, md, extras, file, lines, derived, period, names
+            )
     cols, md = finish(
         columns,
         md,
@@ -493,4 +535,89 @@ def import_csv(
         resample_to=period if resample else None,
         episode_names=names,
     )
+    return Dataset._trusted(cols, md)
+
+
+def _find(specs: Sequence[ChannelSpec], name: str) -> ChannelSpec | None:
+    return next((spec for spec in specs if spec.name == name), None)
+
+
+def _extra_channels(
+    md: dict[str, Any],
+    channels: Sequence[ChannelSpec | Mapping[str, Any]] | None,
+    file: str,
+) -> tuple[ChannelSpec, ...]:
+    """The metadata's declared channels followed by ``channels`` (checked, no repeats)."""
+    given: list[ChannelSpec] = []
+    for item in channels or ():
+        try:
+            spec = item if isinstance(item, ChannelSpec) else channel_from_metadata(item)
+        except ConfigError:
+            raise
+        except (TypeError, ValueError) as exc:  # e.g. a range that is not numbers
+            raise ConfigError(f"channel declaration {item!r}: {exc}") from None
+        given.append(spec)
+    try:
+        declared_channels({"channels": given})
+    except DatasetError as err:
+        raise ConfigError(f"channel declaration: {err.reason}") from None
+    already = declared_channels(md, file=file)
+    return declared_channels({"channels": [*already, *given]}, file=file)
+
+
+def _extra_unit(spec: ChannelSpec, unit: str) -> float:
+    """A declared channel takes no unit conversion: only its declared unit is accepted."""
+    if unit != spec.unit:
+        raise ConfigError(
+            f"unit '{unit}' for column '{spec.name}': a declared channel is imported in its "
+            f"declared unit ({spec.unit}) without conversion; declare it in {unit} instead"
+        )
+    return 1.0
+
+
+def _finish_resampling_extras(
+    columns: dict[str, NDArray[Any]],
+    md: dict[str, Any],
+    extras: Sequence[ChannelSpec],
+    file: str,
+    lines: NDArray[np.int64],
+    derived: Collection[str],
+    period: float,
+    names: list[str] | None,
+) -> Dataset:
+    """``finish`` with resampling, for a log with declared channels.
+
+    ``finish`` resamples the channels of the data contract only; so the whole log is
+    validated on its own rows first, ``finish`` derives and resamples the contract's
+    channels, and each declared channel is resampled onto the same time stamps by the
+    same interpolation (carried through ``resample`` as ``left``, or as ``angle`` for
+    a wrapping one).
+    """
+    raw = dict(columns)
+    for name in derived:
+        raw[name] = np.zeros(len(raw["episode"]))  # placeholder, as finish does
+    try:
+        checked, _ = check_table(raw, md, file=file, lines=lines)
+    except DatasetError as err:
+        raise _rename_episode(err, names) from None
+    extra_names = {spec.name for spec in extras}
+    standard = {name: values for name, values in columns.items() if name not in extra_names}
+    cols, md = finish(
+        standard,
+        {key: value for key, value in md.items() if key != "channels"},
+        file=file,
+        lines=lines,
+        derive=derived,
+        resample_to=period,
+        episode_names=names,
+    )
+    for spec in extras:
+        carrier = "angle" if spec.wraps else "left"
+        grid = {"episode": checked["episode"], "t": checked["t"], carrier: checked[spec.name]}
+        cols[spec.name] = resample_columns(grid, period)[carrier]
+    md["channels"] = [spec.to_metadata() for spec in extras]
+    try:
+        cols, md = check_table(cols, md, file=file)
+    except DatasetError as err:
+        raise _rename_episode(err, names, " (after resampling)") from None
     return Dataset._trusted(cols, md)

@@ -10,27 +10,30 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from behavior_hmm.data._channels import COMMAND_CHANNELS, SENSOR_CHANNELS
+from behavior_hmm.data._channels import CHANNELS, COMMAND_CHANNELS, SENSOR_CHANNELS, ChannelSpec
 from behavior_hmm.data._validate import (
     OPTIONAL_COLUMNS,
     REQUIRED_COLUMNS,
     check_column_names,
     check_table,
+    declared_channels,
     suggest,
 )
 from behavior_hmm.errors import ConfigError, DatasetError
 
-#: Channels that :meth:`Dataset.columns` and :meth:`Episode.columns` can return.
+#: Channels that :meth:`Dataset.columns` and :meth:`Episode.columns` can return for a
+#: dataset of the standard channels (a dataset's own: ``Dataset.numeric_channels``).
 NUMERIC_CHANNELS: tuple[str, ...] = ("t", *SENSOR_CHANNELS, *COMMAND_CHANNELS)
 
 
-def _channel_names(names: str | Sequence[str]) -> list[str]:
+def _channel_names(
+    names: str | Sequence[str], known: Sequence[str] = NUMERIC_CHANNELS
+) -> list[str]:
     names = [names] if isinstance(names, str) else list(names)
     for name in names:
-        if name not in NUMERIC_CHANNELS:
+        if name not in known:
             raise ConfigError(
-                f"unknown channel '{name}' (channels: {', '.join(NUMERIC_CHANNELS)})"
-                f"{suggest(name, NUMERIC_CHANNELS)}"
+                f"unknown channel '{name}' (channels: {', '.join(known)}){suggest(name, known)}"
             )
     return names
 
@@ -51,11 +54,15 @@ class Episode:
     t
         Time stamps, s, shape ``(n,)``, strictly increasing.
     sensors
-        Sensor readings in ``SENSOR_CHANNELS`` order (m, m/s, deg, deg/s), shape ``(n, 4)``.
+        Sensor readings in ``sensor_channels`` order, shape ``(n, len(sensor_channels))``:
+        the four of ``SENSOR_CHANNELS`` (m, m/s, deg, deg/s), then the dataset's declared
+        channels (in their declared units).
     commands
         Wheel commands ``left``, ``right`` (rad/s), shape ``(n, 2)``.
     behavior
         Active sub-behavior name per row (object array of ``str``), or ``None``.
+    sensor_channels
+        Names of the ``sensors`` columns (default ``SENSOR_CHANNELS``).
     """
 
     id: int
@@ -63,28 +70,34 @@ class Episode:
     sensors: NDArray[np.float64]
     commands: NDArray[np.float64]
     behavior: NDArray[np.object_] | None = None
+    sensor_channels: tuple[str, ...] = SENSOR_CHANNELS
 
     def __len__(self) -> int:
         return len(self.t)
 
+    @property
+    def numeric_channels(self) -> tuple[str, ...]:
+        """``t``, the sensor channels and the commands: what :meth:`channel` returns."""
+        return ("t", *self.sensor_channels, *COMMAND_CHANNELS)
+
     def channel(self, name: str) -> NDArray[np.float64]:
         """One channel (``t``, a sensor or a command) as a read-only ``(n,)`` view."""
-        (name,) = _channel_names(name)
+        (name,) = _channel_names(name, self.numeric_channels)
         if name == "t":
             return self.t
-        if name in SENSOR_CHANNELS:
-            return self.sensors[:, SENSOR_CHANNELS.index(name)]
+        if name in self.sensor_channels:
+            return self.sensors[:, self.sensor_channels.index(name)]
         return self.commands[:, COMMAND_CHANNELS.index(name)]
 
     def columns(self, names: str | Sequence[str]) -> NDArray[np.float64]:
         """Several channels stacked as a new ``(n, k)`` float64 array."""
-        names = _channel_names(names)
+        names = _channel_names(names, self.numeric_channels)
         return np.stack([self.channel(n) for n in names], axis=1)
 
     def to_dict(self) -> dict[str, Any]:
         """Columns of this episode (copies), as accepted by :meth:`Dataset.from_episodes`."""
         out: dict[str, Any] = {"episode": self.id, "t": self.t.copy()}
-        for j, name in enumerate(SENSOR_CHANNELS):
+        for j, name in enumerate(self.sensor_channels):
             out[name] = self.sensors[:, j].copy()
         for j, name in enumerate(COMMAND_CHANNELS):
             out[name] = self.commands[:, j].copy()
@@ -103,11 +116,16 @@ class Dataset:
     ----------
     columns
         ``episode`` (int ids, rows of an episode contiguous), ``t`` (s), the sensor
-        channels (m, m/s, deg, deg/s), ``left``, ``right`` (rad/s) and optionally
-        ``behavior`` (active sub-behavior name per row).
+        channels (m, m/s, deg, deg/s), ``left``, ``right`` (rad/s), one column per
+        channel the metadata declares, and optionally ``behavior`` (active sub-behavior
+        name per row).
     metadata
         JSON-serializable description: ``schema_version`` (set if absent), and e.g.
-        ``behavior``, ``simulator``, ``robot``, ``seed``, ``noise``.
+        ``behavior``, ``simulator``, ``robot``, ``seed``, ``noise``. ``channels`` declares
+        a robot's own sensor channels beyond the four, each with unit and range, e.g.
+        ``[{"name": "ir0", "unit": "m", "range": [0, 0.1]}]`` (``ChannelSpec.to_metadata``;
+        ``ChannelSpec`` objects are accepted too): they become sensor columns after the
+        four (``sensor_channels``), validated like them.
 
     Examples
     --------
@@ -124,9 +142,11 @@ class Dataset:
         "_behavior",
         "_commands",
         "_episode",
+        "_extras",
         "_ids",
         "_lengths",
         "_metadata_json",
+        "_sensor_channels",
         "_sensors",
         "_starts",
         "_t",
@@ -135,6 +155,8 @@ class Dataset:
     _episode: NDArray[np.int64]
     _t: NDArray[np.float64]
     _sensors: NDArray[np.float64]
+    _sensor_channels: tuple[str, ...]
+    _extras: tuple[ChannelSpec, ...]
     _commands: NDArray[np.float64]
     _behavior: NDArray[np.object_] | None
     _metadata_json: str
@@ -158,7 +180,9 @@ class Dataset:
     def _set(self, cols: Mapping[str, NDArray[Any]], md: dict[str, Any]) -> None:
         self._episode = _readonly(np.ascontiguousarray(cols["episode"], dtype=np.int64))
         self._t = _readonly(np.ascontiguousarray(cols["t"], dtype=np.float64))
-        self._sensors = _readonly(np.stack([cols[c] for c in SENSOR_CHANNELS], axis=1))
+        self._extras = declared_channels(md)
+        self._sensor_channels = (*SENSOR_CHANNELS, *(spec.name for spec in self._extras))
+        self._sensors = _readonly(np.stack([cols[c] for c in self._sensor_channels], axis=1))
         self._commands = _readonly(np.stack([cols[c] for c in COMMAND_CHANNELS], axis=1))
         behavior = cols.get("behavior")
         self._behavior = None if behavior is None else _readonly(np.asarray(behavior, object))
@@ -183,12 +207,15 @@ class Dataset:
         ----------
         episodes
             :class:`Episode` objects or mappings of columns (``t``, sensors, ``left``,
-            ``right``; optional ``episode`` id, default its position; optional
-            ``behavior``, one name per row or one name for the whole episode).
+            ``right``, the channels ``metadata`` declares; optional ``episode`` id,
+            default its position; optional ``behavior``, one name per row or one name
+            for the whole episode).
         metadata
             See :class:`Dataset`.
         """
-        parts: dict[str, list[NDArray[Any]]] = {c: [] for c in (*REQUIRED_COLUMNS, "behavior")}
+        extra = [spec.name for spec in declared_channels(metadata)]
+        names_needed = (*REQUIRED_COLUMNS, *extra)
+        parts: dict[str, list[NDArray[Any]]] = {c: [] for c in (*names_needed, "behavior")}
         with_behavior: list[bool] = []
         for position, item in enumerate(episodes):
             if isinstance(item, Episode):
@@ -203,7 +230,7 @@ class Dataset:
                 names.append("episode")
             eid = item.get("episode", position)
             try:
-                check_column_names(names)
+                check_column_names(names, extra=extra)
             except DatasetError as err:
                 raise DatasetError(err.reason, episode=eid, field=err.field) from None
             t = np.asarray(item["t"])
@@ -213,7 +240,7 @@ class Dataset:
             if np.ndim(eid) != 0:
                 raise DatasetError("episode id must be one integer", episode=position)
             parts["episode"].append(np.full(max(n, 0), eid))
-            for name in REQUIRED_COLUMNS[1:]:
+            for name in names_needed[1:]:
                 parts[name].append(np.asarray(item[name]))
             with_behavior.append("behavior" in item)
             if "behavior" in item:
@@ -281,6 +308,25 @@ class Dataset:
         return sorted(set(self._behavior.tolist()))
 
     @property
+    def sensor_channels(self) -> tuple[str, ...]:
+        """Names of the ``sensors`` columns: ``SENSOR_CHANNELS``, then the declared ones."""
+        return self._sensor_channels
+
+    @property
+    def channel_specs(self) -> list[ChannelSpec]:
+        """The :class:`ChannelSpec` of each sensor channel, in ``sensor_channels`` order.
+
+        The four of the data contract come from ``CHANNELS``, the others from the
+        metadata's ``channels`` declarations.
+        """
+        return [CHANNELS[name] for name in SENSOR_CHANNELS] + list(self._extras)
+
+    @property
+    def numeric_channels(self) -> tuple[str, ...]:
+        """``t``, the sensor channels and the commands: what :meth:`column` returns."""
+        return ("t", *self._sensor_channels, *COMMAND_CHANNELS)
+
+    @property
     def metadata(self) -> dict[str, Any]:
         """A fresh copy of the metadata (editing it changes nothing; see ``with_metadata``)."""
         out: dict[str, Any] = json.loads(self._metadata_json)
@@ -295,7 +341,7 @@ class Dataset:
 
     @property
     def sensors(self) -> NDArray[np.float64]:
-        """All sensor columns in ``SENSOR_CHANNELS`` order, shape ``(n_samples, 4)``."""
+        """All sensor columns in ``sensor_channels`` order, ``(n_samples, 4 + declared)``."""
         return self._sensors
 
     @property
@@ -310,22 +356,26 @@ class Dataset:
 
     def column(self, name: str) -> NDArray[np.float64]:
         """One numeric channel as a read-only ``(n_samples,)`` view."""
-        (name,) = _channel_names(name)
+        (name,) = _channel_names(name, self.numeric_channels)
         if name == "t":
             return self._t
-        if name in SENSOR_CHANNELS:
-            return self._sensors[:, SENSOR_CHANNELS.index(name)]
+        if name in self._sensor_channels:
+            return self._sensors[:, self._sensor_channels.index(name)]
         return self._commands[:, COMMAND_CHANNELS.index(name)]
 
     def columns(self, names: str | Sequence[str]) -> NDArray[np.float64]:
         """Several channels stacked as a new ``(n_samples, k)`` float64 array."""
-        names = _channel_names(names)
+        names = _channel_names(names, self.numeric_channels)
         return np.stack([self.column(n) for n in names], axis=1)
 
     def to_columns(self) -> dict[str, NDArray[Any]]:
-        """All columns as writable copies, in file order (``behavior`` last if present)."""
+        """All columns as writable copies, in file order (``behavior`` last if present).
+
+        File order: ``episode``, ``t``, the sensor channels (``sensor_channels``),
+        ``left``, ``right``.
+        """
         out: dict[str, NDArray[Any]] = {"episode": self._episode.copy(), "t": self._t.copy()}
-        for j, name in enumerate(SENSOR_CHANNELS):
+        for j, name in enumerate(self._sensor_channels):
             out[name] = self._sensors[:, j].copy()
         for j, name in enumerate(COMMAND_CHANNELS):
             out[name] = self._commands[:, j].copy()
@@ -344,7 +394,12 @@ class Dataset:
         a, b = int(self._starts[i]), int(self._starts[i]) + int(self._lengths[i])
         behavior = None if self._behavior is None else self._behavior[a:b]
         return Episode(
-            int(self._ids[i]), self._t[a:b], self._sensors[a:b], self._commands[a:b], behavior
+            int(self._ids[i]),
+            self._t[a:b],
+            self._sensors[a:b],
+            self._commands[a:b],
+            behavior,
+            self._sensor_channels,
         )
 
     def episodes(self) -> Iterator[Episode]:
@@ -386,6 +441,14 @@ class Dataset:
             raise DatasetError(
                 "cannot concatenate a dataset with a 'behavior' column and one without",
                 field="behavior",
+            )
+        if self._extras != other._extras:
+            mine = ", ".join(s.name for s in self._extras) or "none"
+            theirs = ", ".join(s.name for s in other._extras) or "none"
+            raise DatasetError(
+                f"cannot concatenate datasets with different declared channels ({mine} vs "
+                f"{theirs}, or different units or ranges)",
+                field="channels",
             )
         a, b = self.to_columns(), other.to_columns()
         cols = {name: np.concatenate([a[name], b[name]]) for name in a}
@@ -439,6 +502,8 @@ class Dataset:
         extra = f", behavior={md['behavior']!r}" if md.get("behavior") else ""
         if self._behavior is not None:
             extra += f", sub-behaviors={self.behaviors}"
+        if self._extras:
+            extra += f", channels+={[spec.name for spec in self._extras]}"
         return f"Dataset({len(self)} episodes, {self.n_samples} samples{extra})"
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
-from behavior_hmm.data._channels import CONTROL_PERIOD
+from behavior_hmm.data._channels import CHANNELS, CONTROL_PERIOD, SENSOR_RANGES
 from behavior_hmm.data._normalize import Normalizer
 from behavior_hmm.data._units import wrap_degree, wrap_degrees
 from behavior_hmm.errors import ConfigError
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from behavior_hmm.data._dataset import Dataset
 
 #: Channels holding angles in degrees; the pipeline filters them with ``wrap="deg"``.
-ANGLE_CHANNELS: Final[frozenset[str]] = frozenset({"angle"})
+ANGLE_CHANNELS: Final[frozenset[str]] = frozenset(n for n, s in CHANNELS.items() if s.wraps)
 
 #: Default cut-off frequency of the low-pass filter, Hz.
 DEFAULT_CUTOFF_HZ: Final[float] = 4.0
@@ -249,10 +249,34 @@ class SignalPipeline:
         filters = None
         if self.cutoff_hz is not None:
             filters = tuple(
-                LowPassFilter(self.cutoff_hz, self.fs, "deg" if c in ANGLE_CHANNELS else None)
+                LowPassFilter(
+                    self.cutoff_hz, self.fs, "deg" if c in CHANNELS and CHANNELS[c].wraps else None
+                )
                 for c in norm.channels
             )
         object.__setattr__(self, "filters", filters)
+
+    @classmethod
+    def for_dataset(
+        cls, dataset: Dataset, channels: Sequence[str], cutoff_hz: float | None
+    ) -> SignalPipeline:
+        """The pipeline for ``channels`` of a dataset, at its robot's rate and ranges.
+
+        The sampling rate is ``1 / metadata["control_period"]`` (default 16 ms); each
+        channel's normalization range is the robot's (``metadata["ranges"]``, written by
+        ``collect`` from the env's ``channel_ranges``), else a channel the dataset
+        declares (``metadata["channels"]``), else the data contract's.
+        """
+        meta = dataset.metadata
+        period = float(meta.get("control_period") or CONTROL_PERIOD)
+        ranges: dict[str, tuple[float, float]] = {}
+        for spec in getattr(dataset, "channel_specs", ()) or ():
+            if spec.name in channels and spec.name not in SENSOR_RANGES:
+                ranges[spec.name] = spec.range
+        for name, pair in dict(meta.get("ranges") or {}).items():
+            if name in channels:
+                ranges[name] = (float(pair[0]), float(pair[1]))
+        return cls(tuple(channels), cutoff_hz, 1.0 / period, ranges or None)
 
     def offline(self, x: ArrayLike) -> NDArray[np.float64]:
         """Filter and normalize one episode, shape ``(n, k)`` in channel order."""

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from behavior_hmm._estimator import Estimator
 from behavior_hmm.data._channels import SENSOR_CHANNELS, SENSOR_RANGES
 from behavior_hmm.errors import ConfigError, DatasetError, NotFittedError
 
@@ -81,6 +82,20 @@ class Normalizer:
         object.__setattr__(self, "_lo", lo)
         object.__setattr__(self, "_gain", 2.0 / (hi - lo))
 
+    @property
+    def lo(self) -> NDArray[np.float64]:
+        """Lower range end of each channel (physical units), read-only."""
+        out = self._lo.view()
+        out.flags.writeable = False
+        return out
+
+    @property
+    def gain(self) -> NDArray[np.float64]:
+        """``2 / (hi - lo)`` of each channel: ``y = (x - lo) * gain - 1``, read-only."""
+        out = self._gain.view()
+        out.flags.writeable = False
+        return out
+
     def _check(self, x: ArrayLike) -> NDArray[np.float64]:
         a = np.asarray(x, dtype=np.float64)
         if a.ndim == 0 or a.shape[-1] != len(self.channels):
@@ -129,7 +144,7 @@ class Normalizer:
         return cls(tuple(d["channels"]), pairs, clip)
 
 
-class CommandScaler:
+class CommandScaler(Estimator):
     """Scale wheel commands into [−1, 1] by the largest absolute training command.
 
     One scale for both wheels (DESIGN §6): ``scale_ = max |command|`` over the
@@ -143,10 +158,6 @@ class CommandScaler:
 
     def __init__(self) -> None:
         pass
-
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """No parameters (scikit-learn convention)."""
-        return {}
 
     def fit(self, commands: ArrayLike | Any) -> CommandScaler:
         """Learn the scale from commands (rad/s, shape ``(n, 2)``) or a ``Dataset``."""

@@ -1,9 +1,11 @@
 """The Parquet episode format (DESIGN §4): one row per sample, metadata as JSON.
 
 Columns, in order: ``episode`` (int64), ``t`` (float64, s), the sensor channels
-(float64, physical units), ``left``, ``right`` (float64, rad/s) and, for complex
+(float64, physical units) followed by the channels the metadata declares (float64, in
+their declared units), ``left``, ``right`` (float64, rad/s) and, for complex
 demonstrations, ``behavior`` (string). The dataset metadata is stored as JSON
-under the schema metadata key ``behavior_hmm``.
+under the schema metadata key ``behavior_hmm``; its ``channels`` entry declares the
+extra sensor channels (name, unit, range).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from numpy.typing import NDArray
 
 from behavior_hmm._atomic import atomic_write_with
 from behavior_hmm.data._dataset import Dataset
-from behavior_hmm.data._validate import check_column_names, check_table
+from behavior_hmm.data._validate import check_column_names, check_table, declared_channels
 from behavior_hmm.errors import DatasetError
 
 #: Schema metadata key under which the dataset metadata (JSON) is stored.
@@ -146,7 +148,8 @@ def read(path: str | os.PathLike[str], *, behaviors: Collection[str] | None = No
     except Exception as exc:  # any failure to parse means "not a dataset"
         raise DatasetError(f"not a readable Parquet file ({_one_line(exc)})", file=file) from None
     metadata = _metadata_from_schema(table.schema, file)
-    check_column_names(table.column_names, file=file)
+    extra = [spec.name for spec in declared_channels(metadata, file=file)]
+    check_column_names(table.column_names, file=file, extra=extra)
 
     # Nulls: locate them by episode and row where the episode column allows it.
     null_at = _first_null(table, "episode")

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from behavior_hmm.data._channels import UNITS
-from behavior_hmm.data._dataset import NUMERIC_CHANNELS, Dataset
+from behavior_hmm.data._dataset import Dataset
 
 
 def _stats(values: np.ndarray) -> dict[str, float]:
@@ -27,18 +27,19 @@ def summarize(ds: Dataset) -> dict[str, Any]:
         ``episodes``, ``samples``, ``samples_per_episode`` and ``duration_s``
         (min/median/max), ``sample_period_s`` (median time step, ``None`` if no
         episode has two samples), ``channels`` (unit, min, max of each numeric
-        channel except ``t``), ``behaviors`` (sub-behavior names present) and
-        ``metadata``.
+        channel except ``t``, declared channels included), ``behaviors``
+        (sub-behavior names present) and ``metadata``.
     """
     offsets = ds.offsets
     t = ds.t
     first, last = offsets[:-1], offsets[1:] - 1
     same = ds.episode_ids.repeat(ds.lengths)
     dt = np.diff(t)[same[1:] == same[:-1]]
+    units = {**UNITS, **{spec.name: spec.unit for spec in ds.channel_specs}}
     channels = {}
-    for name in NUMERIC_CHANNELS[1:]:
+    for name in ds.numeric_channels[1:]:
         col = ds.column(name)
-        channels[name] = {"unit": UNITS[name], "min": float(col.min()), "max": float(col.max())}
+        channels[name] = {"unit": units[name], "min": float(col.min()), "max": float(col.max())}
     return {
         "episodes": len(ds),
         "samples": ds.n_samples,

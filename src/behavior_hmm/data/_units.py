@@ -8,21 +8,14 @@ from typing import Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from behavior_hmm.data._channels import CHANNELS
 from behavior_hmm.errors import ConfigError
-
-_RPM: Final[float] = 2.0 * math.pi / 60.0
-_DEG: Final[float] = math.pi / 180.0
 
 #: For each column, the units ``import_csv`` accepts and the factor that converts
 #: a value in that unit into the column's canonical unit (``UNITS``).
 UNIT_FACTORS: Final[dict[str, dict[str, float]]] = {
     "t": {"s": 1.0, "ms": 1e-3},
-    "distance": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
-    "linear_velocity": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
-    "angle": {"deg": 1.0, "rad": 180.0 / math.pi},
-    "angular_velocity": {"deg/s": 1.0, "rad/s": 180.0 / math.pi},
-    "left": {"rad/s": 1.0, "rpm": _RPM, "deg/s": _DEG},
-    "right": {"rad/s": 1.0, "rpm": _RPM, "deg/s": _DEG},
+    **{name: dict(spec.units) for name, spec in CHANNELS.items()},
 }
 
 

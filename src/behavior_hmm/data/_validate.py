@@ -16,7 +16,14 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import COMMAND_CHANNELS, SENSOR_CHANNELS, UNITS
+from behavior_hmm.data._channels import (
+    CHANNELS,
+    COMMAND_CHANNELS,
+    SENSOR_CHANNELS,
+    UNITS,
+    ChannelSpec,
+    channel_from_metadata,
+)
 from behavior_hmm.errors import DatasetError
 
 #: Version of the dataset schema this package writes and reads.
@@ -35,17 +42,13 @@ FLOAT_COLUMNS: Final[tuple[str, ...]] = ("t", *SENSOR_CHANNELS, *COMMAND_CHANNEL
 #: as absurd (a glitch or a unit mistake). ``distance`` may dip slightly below 0 because
 #: sensor noise near the goal can push a reading of ~0 m under zero.
 VALUE_BOUNDS: Final[dict[str, tuple[float, float]]] = {
-    "distance": (-0.5, 10.0),
-    "linear_velocity": (-5.0, 5.0),
-    "angle": (-180.0, 180.0),
-    "angular_velocity": (-3600.0, 3600.0),
-    "left": (-1000.0, 1000.0),
-    "right": (-1000.0, 1000.0),
+    name: spec.bounds for name, spec in CHANNELS.items() if spec.bounds is not None
 }
 
 #: Behavior names: a lowercase identifier such as ``turn`` or ``turn_approach``.
 BEHAVIOR_NAME_PATTERN: Final[str] = r"^[a-z][a-z0-9_-]{0,63}$"
 _NAME_RE = re.compile(r"[a-z][a-z0-9_-]{0,63}\Z")
+_CHANNEL_NAME_RE = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")
 
 _INT64_MAX = np.iinfo(np.int64).max
 
@@ -70,34 +73,114 @@ def check_behavior_name(name: object, *, file: str | None = None, field: str = "
     return name
 
 
+#: How to declare a column that is not one of ours (end of "unexpected column" errors).
+DECLARE_HINT: Final[str] = 'declare it in the metadata\'s "channels" with unit and range'
+
+
+def declared_channels(metadata: object, *, file: str | None = None) -> tuple[ChannelSpec, ...]:
+    """The extra sensor channels declared in a dataset's metadata, in declared order.
+
+    ``metadata["channels"]`` is a list of declarations ``{"name", "unit", "range", ...}``
+    (:func:`~behavior_hmm.data._channels.channel_from_metadata`; :class:`ChannelSpec`
+    objects are accepted too). Each becomes a float64 sensor column after the four of the
+    data contract. Metadata that is not a mapping, or without ``"channels"``, declares
+    none.
+
+    Raises
+    ------
+    DatasetError
+        For a malformed declaration, a declaration of a built-in or reserved column,
+        a command channel, or a channel declared twice (naming the file).
+    """
+    if not isinstance(metadata, Mapping) or metadata.get("channels") is None:
+        return ()
+    entries = metadata["channels"]
+    if not isinstance(entries, list | tuple):
+        raise DatasetError(
+            f"'channels' must be a list of channel declarations "
+            f'({{"name", "unit", "range"}}), got {type(entries).__name__}',
+            file=file,
+            field="channels",
+        )
+    specs: list[ChannelSpec] = []
+    for entry in entries:
+        if isinstance(entry, ChannelSpec):
+            spec = entry
+        else:
+            try:
+                spec = channel_from_metadata(entry)
+            except (TypeError, ValueError) as exc:  # ConfigError is a ValueError
+                text = " ".join(str(exc).split())
+                raise DatasetError(
+                    f"bad channel declaration: {text}", file=file, field="channels"
+                ) from None
+        if spec.name in REQUIRED_COLUMNS or spec.name in OPTIONAL_COLUMNS:
+            raise DatasetError(
+                f"channel '{spec.name}' is a built-in column of the data contract; declare "
+                "only a robot's own channels, under other names",
+                file=file,
+                field="channels",
+            )
+        if spec.kind != "sensor":
+            raise DatasetError(
+                f"channel '{spec.name}': only sensor channels can be declared (kind {spec.kind!r})",
+                file=file,
+                field="channels",
+            )
+        if any(s.name == spec.name for s in specs):
+            raise DatasetError(
+                f"channel '{spec.name}' is declared twice", file=file, field="channels"
+            )
+        specs.append(spec)
+    return tuple(specs)
+
+
 def check_column_names(
     names: Iterable[str],
     *,
     file: str | None = None,
     required: Collection[str] = REQUIRED_COLUMNS,
+    extra: Collection[str] = (),
 ) -> None:
-    """Refuse duplicate, unexpected (with the closest expected name) and missing columns."""
+    """Refuse duplicate, unexpected (with the closest expected name) and missing columns.
+
+    ``extra`` are the dataset's declared channels (:func:`declared_channels`): allowed,
+    and required.
+    """
     names = list(names)
-    allowed = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS)
+    allowed = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS, *extra)
     seen: set[str] = set()
     for name in names:
         if name in seen:
             raise DatasetError("column appears twice", file=file, field=name)
         seen.add(name)
     missing = [c for c in required if c not in seen]
+    missing_extra = [c for c in extra if c not in seen]
     for name in names:
         if name not in allowed:
-            hint = suggest(name, missing or allowed)
-            raise DatasetError(
-                f"unexpected column{hint or ' (expected columns: ' + ', '.join(allowed) + ')'}",
-                file=file,
-                field=name,
-            )
+            hint = suggest(name, missing + missing_extra or allowed)
+            if hint:
+                message = f"unexpected column{hint} (or {DECLARE_HINT})"
+            else:
+                example = name if _CHANNEL_NAME_RE.match(name) else "ir0"
+                message = (
+                    f"unexpected column (expected columns: {', '.join(allowed)}; a robot's own "
+                    f'sensor channel? {DECLARE_HINT}, e.g. {{"name": "{example}", "unit": "m", '
+                    '"range": [0, 1]})'
+                )
+            raise DatasetError(message, file=file, field=name)
     if missing:
         raise DatasetError(
             f"missing column (a dataset needs: {', '.join(REQUIRED_COLUMNS)})",
             file=file,
             field=missing[0],
+        )
+    if missing_extra:
+        raise DatasetError(
+            'missing column of a declared channel (the metadata\'s "channels" declares it: '
+            "add the column or remove the declaration)",
+            file=file,
+            field=missing_extra[0],
         )
 
 
@@ -137,6 +220,8 @@ def _as_array(values: object, name: str, file: str | None) -> NDArray[Any]:
 
 
 def _json_default(obj: object) -> object:
+    if isinstance(obj, ChannelSpec):
+        return obj.to_metadata()
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, np.ndarray):
@@ -178,6 +263,8 @@ def canonical_metadata(
             raise DatasetError("'behaviors' must be a list of names", file=file, field="behaviors")
         for name in out["behaviors"]:
             check_behavior_name(name, file=file, field="behaviors")
+    if out.get("channels") is not None:
+        out["channels"] = [spec.to_metadata() for spec in declared_channels(out, file=file)]
     return out
 
 
@@ -195,10 +282,13 @@ def check_table(
     ----------
     columns
         ``episode`` (integer ids, each episode's rows contiguous), ``t`` (s, strictly
-        increasing within an episode), the sensor and command columns (physical units)
-        and optionally ``behavior`` (one name per row).
+        increasing within an episode), the sensor and command columns (physical units),
+        one column per channel the metadata declares, and optionally ``behavior`` (one
+        name per row).
     metadata
         JSON-serializable mapping; ``schema_version`` defaults to :data:`SCHEMA_VERSION`.
+        ``channels`` declares extra sensor channels (:func:`declared_channels`); their
+        values are checked like the standard ones (finite, within the spec's ``bounds``).
     file
         File name to put in error messages.
     lines
@@ -210,10 +300,11 @@ def check_table(
     Returns
     -------
     columns, metadata
-        ``episode`` as int64, the float columns as float64, ``behavior`` as an object
-        array of ``str``; all arrays are fresh copies.
+        ``episode`` as int64, the float columns (declared channels included) as
+        float64, ``behavior`` as an object array of ``str``; all arrays are fresh copies.
     """
-    check_column_names(columns.keys(), file=file)
+    extras = declared_channels(metadata, file=file)
+    check_column_names(columns.keys(), file=file, extra=[spec.name for spec in extras])
     arrays = {name: _as_array(values, name, file) for name, values in columns.items()}
     n = len(arrays["episode"])
     for name, arr in arrays.items():
@@ -258,11 +349,13 @@ def check_table(
     out: dict[str, NDArray[Any]] = {"episode": episode}
 
     # Float columns: numeric type, finite, within plausible bounds.
-    for name in FLOAT_COLUMNS:
+    floats = [(name, UNITS[name], VALUE_BOUNDS.get(name)) for name in FLOAT_COLUMNS]
+    floats += [(spec.name, spec.unit, spec.bounds) for spec in extras]
+    for name, unit, bounds in floats:
         arr = arrays[name]
         if arr.dtype.kind not in "iuf":
             raise DatasetError(
-                f"wrong type {arr.dtype} (expected numbers in {UNITS[name]})",
+                f"wrong type {arr.dtype} (expected numbers in {unit})",
                 file=file,
                 field=name,
             )
@@ -272,12 +365,11 @@ def check_table(
             i = int(np.argmax(bad))
             kind = "NaN" if np.isnan(values[i]) else "infinite"
             raise where.error(f"{kind} value", i, name)
-        if name in VALUE_BOUNDS:
-            lo, hi = VALUE_BOUNDS[name]
+        if bounds is not None:
+            lo, hi = bounds
             bad = (values < lo) | (values > hi)
             if bad.any():
                 i = int(np.argmax(bad))
-                unit = UNITS[name]
                 raise where.error(
                     f"absurd value {values[i]:g} {unit}, outside the plausible range "
                     f"[{lo:g}, {hi:g}] {unit} (wrong units?)",

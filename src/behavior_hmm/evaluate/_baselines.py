@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from behavior_hmm._estimator import Estimator
 from behavior_hmm.data import (
     DEFAULT_CUTOFF_HZ,
     SENSOR_CHANNELS,
@@ -16,17 +16,11 @@ from behavior_hmm.data import (
     Dataset,
     SignalPipeline,
 )
-from behavior_hmm.errors import ConfigError, NotFittedError
-from behavior_hmm.generators import MotionGenerators, make_windows
-from behavior_hmm.models._goals import check_goal, within_tolerance
-from behavior_hmm.models._sblm import command_features, onset_features, shifted_windows
-from behavior_hmm.runtime import (
-    DEFAULT_FAULT_HOLD_S,
-    StepOutput,
-    Trace,
-    channels_read,
-    run_controller,
-)
+from behavior_hmm.errors import NotFittedError
+from behavior_hmm.generators import MotionGenerators
+from behavior_hmm.generators._features import FeatureLayout, shifted_windows
+from behavior_hmm.models._goals import check_goal, check_input_names, within_tolerance
+from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, StepOutput, Trace, run_policy
 
 FloatArray = NDArray[np.float64]
 
@@ -34,7 +28,7 @@ _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
 _ZERO = np.zeros(2)
 
 
-class BehaviorCloning:
+class BehaviorCloning(Estimator):
     """Plain behavior cloning: one goal-conditioned network on all demonstrations.
 
     The network reads what an SBLM's generators read with the default settings (the
@@ -90,18 +84,11 @@ class BehaviorCloning:
         self.batch_size = batch_size
         self.random_state = random_state
 
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Constructor parameters by name."""
-        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
-        return {name: getattr(self, name) for name in names}
-
     def fit(self, dataset: Dataset) -> BehaviorCloning:
         """Train the network on every demonstration of ``dataset``; returns ``self``."""
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
-        for name in inputs:
-            if name not in SENSOR_CHANNELS:
-                raise ConfigError(f"unknown input '{name}'")
-        pipeline = SignalPipeline(inputs, self.cutoff_hz)
+        check_input_names(inputs, getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
         raw = dataset.columns(inputs)
@@ -113,12 +100,9 @@ class BehaviorCloning:
         goals = np.repeat(episode_goal, lengths, axis=0)
         scaler = CommandScaler().fit(dataset.commands)
         y = scaler.transform(dataset.commands)
-        parts = [make_windows(x, lengths, self.window), goals]
-        if self.command_history:
-            parts.append(command_features(y, lengths, self.command_history))
-        if self.onset_clock > 0:
-            parts.append(onset_features(lengths, self.onset_clock))
-        features = np.hstack(parts)
+        self.inputs_ = inputs
+        self.goal_channels_ = goal_channels
+        features = self.feature_layout().offline(x, y, lengths, goals)
         groups = np.repeat(dataset.episode_ids, lengths)
         targets = y
         if self.window_noise > 0:
@@ -137,10 +121,8 @@ class BehaviorCloning:
             batch_size=self.batch_size,
             random_state=self.random_state,
         ).fit(features, targets, None, groups=groups)
-        self.inputs_ = inputs
         self.pipeline_ = pipeline
         self.network_ = net
-        self.goal_channels_ = goal_channels
         self.command_scale_ = float(scaler.scale_)
         self.default_goal_ = {
             c: float(np.median(raw[finals, inputs.index(c)])) if c not in _DEFAULT_GOALS else 0.0
@@ -149,6 +131,16 @@ class BehaviorCloning:
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
         self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         return self
+
+    def feature_layout(self) -> FeatureLayout:
+        """The network's input row: sensor windows, goal, efference copy, onset clock."""
+        return FeatureLayout(
+            n_channels=len(self.inputs_),
+            window=int(self.window),
+            goal=len(self.goal_channels_),
+            history=int(self.command_history),
+            clock=int(self.onset_clock),
+        )
 
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
         """The goal on this model's goal channels (default: where the demos end)."""
@@ -173,12 +165,11 @@ class BehaviorCloning:
     ) -> Trace:
         """Drive ``env`` from ``start`` with the cloned policy until the goal tolerance.
 
-        The keyword arguments are those of :func:`behavior_hmm.runtime.run_behavior`
+        The keyword arguments are those of :func:`behavior_hmm.models.perform`
         (``fault_hold_s``: seconds a non-finite reading on an input is held).
         """
-        controller = _BCController(self, self.resolve_goal(goal))
-        return run_controller(
-            controller,
+        return run_policy(
+            self.policy(goal),
             env,
             start=start,
             seed=seed,
@@ -186,63 +177,46 @@ class BehaviorCloning:
             max_steps=int(max_steps or self.max_steps_),
             pushes=pushes,
             fault_hold_s=fault_hold_s,
-            read_channels=channels_read(self),
         )
 
+    def policy(self, goal: Mapping[str, float] | None = None) -> BCPolicy:
+        """The cloned policy toward ``goal`` (see :class:`behavior_hmm.runtime.Policy`)."""
+        return BCPolicy(self, self.resolve_goal(goal))
 
-class _BCController:
+
+class BCPolicy:
+    """Behavior cloning's policy: the one network, fed the goal, until the tolerance."""
+
     def __init__(self, model: BehaviorCloning, goal: dict[str, float]) -> None:
         self.goal = goal
         self._model = model
-        self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
-        self._channels = model.inputs_
+        self._channels = tuple(model.inputs_)
+        self.channels = tuple(c for c in SENSOR_CHANNELS if c in self._channels) + tuple(
+            c for c in self._channels if c not in SENSOR_CHANNELS
+        )
+        self._idx = self._channels
         self._pipe = model.pipeline_.online()
         norm = model.pipeline_.normalizer
-        self._lo = np.asarray(norm._lo, dtype=np.float64)
-        self._gain = np.asarray(norm._gain, dtype=np.float64)
+        self._lo = np.array(norm.lo, dtype=np.float64)
+        self._gain = np.array(norm.gain, dtype=np.float64)
         goal_norm = [
             (goal[c] - self._lo[model.inputs_.index(c)]) * self._gain[model.inputs_.index(c)] - 1
             for c in model.goal_channels_
         ]
-        self._goal_norm = np.asarray(goal_norm, dtype=np.float64)
-        self._window = int(model.window)
-        self._history = int(model.command_history)
-        self._clock = int(model.onset_clock)
-        n_ch = len(self._idx)
-        self._buf = np.zeros((n_ch, self._window))
-        width = n_ch * self._window + len(goal_norm) + 2 * self._history
-        self._feat = np.zeros(width + (1 if self._clock else 0))
-        self._started = False
-        self._k = 0
+        self._features = model.feature_layout().online()
+        self._features.set_goal(np.asarray(goal_norm, dtype=np.float64))
 
     def reset(self) -> None:
         self._pipe.reset()
-        self._started = False
-        self._feat[:] = 0.0
-        self._k = 0
+        self._features.reset()
 
-    def step(self, reading: FloatArray) -> StepOutput:
-        x = self._pipe.step(reading[self._idx])
-        if not self._started:
-            self._buf[:] = x[:, None]
-            self._started = True
-        else:
-            self._buf[:, :-1] = self._buf[:, 1:]
-            self._buf[:, -1] = x
+    def step(self, reading: Mapping[str, float]) -> StepOutput:
+        x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
+        self._features.push(x)
         filtered = (x + 1.0) / self._gain + self._lo
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
         if within_tolerance(values, self.goal):
             return StepOutput(_ZERO, -1, False, 0, "bc", False, True)
-        n = self._buf.size
-        g = len(self._goal_norm)
-        self._feat[:n] = self._buf.ravel()
-        self._feat[n : n + g] = self._goal_norm
-        if self._clock:
-            self._feat[-1] = min(self._k, self._clock) / self._clock
-        self._k += 1
-        y = self._model.network_.predict_one(self._feat, 0)
-        if self._history:
-            hist = self._feat[n + g : n + g + 2 * self._history]
-            hist[:-2] = hist[2:]
-            hist[-2:] = y
+        features = self._features
+        y = features.commit(self._model.network_.predict_one(features.row(), 0))
         return StepOutput(y * self._model.command_scale_, -1, False, 0, "bc", False, False)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -14,19 +15,11 @@ from behavior_hmm.evaluate._metrics import (
     switches,
     zero_floor,
 )
+from behavior_hmm.runtime import Robot
 
 Progress = Callable[[int, int], None]
 #: ``case_options(i, start, reference)``: extra ``generate`` keyword arguments for case i.
 CaseOptions = Callable[[int, dict[str, float], dict[str, np.ndarray]], Mapping[str, Any]]
-
-#: Teacher behavior demonstrated for a model's behavior name.
-_TEACHER_OF = {
-    "turn": "turn",
-    "approach": "approach",
-    "retreat": "retreat",
-    "turn-approach": "turn-approach",
-    "position": "position",
-}
 
 
 def split_start(start: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float]]:
@@ -48,14 +41,9 @@ def reference_demonstration(
     """The teacher's demonstration (dataset columns) from ``start`` in ``env``."""
     from behavior_hmm.teach import Teacher, complete_start
 
-    teacher_behavior = _TEACHER_OF.get(behavior)
-    if teacher_behavior is None:
-        raise ConfigError(
-            f"no teacher for behavior '{behavior}'; evaluation needs one of {sorted(_TEACHER_OF)}"
-        )
-    full = complete_start(teacher_behavior, dict(start))
+    full = complete_start(behavior, dict(start), math.inf)
     demo = Teacher(env).demonstrate(
-        teacher_behavior,
+        behavior,
         full["angle"],
         full["distance"],
         goal_distance=goal.get("distance"),
@@ -69,7 +57,7 @@ def evaluate_model(
     model: Any,
     starts: Sequence[Mapping[str, float]],
     *,
-    sim: str = "mujoco",
+    sim: str | None = "mujoco",
     seed: int = 0,
     noise: float = 0.0,
     baselines: Mapping[str, Any] | None = None,
@@ -89,6 +77,8 @@ def evaluate_model(
         Start dicts (``angle``, ``distance``, optional ``goal_<channel>``).
     sim, seed, noise
         Simulator backend, seed (case ``i`` uses ``seed + i``) and sensor noise.
+        ``sim=None``: a robot of the user's own, ``env``, which then also runs the
+        teacher's reference demonstrations (its starts may lie beyond our arena).
     baselines
         Fitted baselines by name, evaluated on the same starts and references.
     progress
@@ -125,10 +115,16 @@ def evaluate_model(
 
     if not starts:
         raise ConfigError("no starts to evaluate")
-    reference_env = make_env(sim)
+    if sim is None:
+        if env is None:
+            raise ConfigError("evaluate_model needs sim or env")
+        reference_env = env
+    else:
+        reference_env = make_env(sim)
     if env is None:
         env = reference_env
-    motor_max = float(reference_env.params.max_wheel_speed)
+    motor_max = Robot(reference_env).spec.max_wheel_speed
+    max_distance = None if sim is not None else math.inf
     behavior = str(model.behavior_)
     scale = float(model.command_scale_)
     runners = {"model": model, **dict(baselines or {})}
@@ -138,8 +134,7 @@ def evaluate_model(
     done = 0
     for i, row in enumerate(starts):
         begin, case_goal = split_start(row)
-        teacher_behavior = _TEACHER_OF.get(behavior, behavior)
-        full = complete_start(teacher_behavior, begin)
+        full = complete_start(behavior, begin, max_distance)
         demo = reference_demonstration(
             behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
         )
@@ -155,7 +150,7 @@ def evaluate_model(
             goal = case_goal or None
             try:
                 trace = runner.generate(
-                    env, start=full, goal=goal, seed=seed + i, noise=noise, **extra
+                    env, start=full, goal=goal, seed=seed + i, noise=noise or None, **extra
                 )
             except UnreachableGoalError as err:
                 # refused before any motion: scored as a robot that stayed still
@@ -282,17 +277,13 @@ def _collapsed(names: list[str]) -> list[str]:
 
 def _refused(runner: Any, start: Mapping[str, float], goal: Any, why: str) -> Any:
     """The trace of a run refused before any motion (the goal was unreachable)."""
-    from behavior_hmm.data import SENSOR_CHANNELS
     from behavior_hmm.runtime import Trace
 
-    trace = Trace(goal=runner.resolve_goal(goal), start=dict(start))
+    trace = Trace(goal=runner.resolve_goal(goal), start=dict(start), channels=["angle", "distance"])
     trace.t.append(0.0)
     trace.commands.append(np.zeros(2))
     trace.component.append("")
     trace.plan_changed.append(False)
-    final = np.zeros(len(SENSOR_CHANNELS))
-    for name in ("angle", "distance"):
-        final[SENSOR_CHANNELS.index(name)] = start[name]
-    trace.final_observation = final
+    trace.final_observation = np.array([start["angle"], start["distance"]], dtype=np.float64)
     trace.reason = f"unreachable: {why}"
     return trace

@@ -7,6 +7,8 @@ is listed in :data:`DEPARTURES`.
 
 from behavior_hmm.models._cblm import CBLM
 from behavior_hmm.models._config import read_config, resolve_params
+from behavior_hmm.models._load import MODEL_KINDS, load
+from behavior_hmm.models._policy import perform
 from behavior_hmm.models._presets import (
     DEPARTURES,
     PRESETS,
@@ -19,10 +21,13 @@ from behavior_hmm.models._sblm import SBLM
 __all__ = [
     "CBLM",
     "DEPARTURES",
+    "MODEL_KINDS",
     "PRESETS",
     "SBLM",
     "Departure",
     "describe_params",
+    "load",
+    "perform",
     "preset_params",
     "read_config",
     "resolve_params",

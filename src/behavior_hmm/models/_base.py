@@ -2,20 +2,24 @@
 
 from __future__ import annotations
 
-import inspect
+import hashlib
+import json
 import os
 from collections.abc import Mapping
-from typing import Any
+from pathlib import Path
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import NDArray
 
+from behavior_hmm._estimator import Estimator
+from behavior_hmm.data._channels import CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
 
 
-class LearnedBehavior:
+class LearnedBehavior(Estimator):
     """Base of the learned behaviors: scikit-learn parameters and goal observations.
 
     Subclasses set, when fitted, ``inputs_``, ``pipeline_``, ``observations_`` (a
@@ -27,20 +31,6 @@ class LearnedBehavior:
     observations_: Any
     hmm_: Any
     rest_values_: dict[str, float]
-
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Constructor parameters by name (scikit-learn convention)."""
-        names = [n for n in inspect.signature(type(self).__init__).parameters if n != "self"]
-        return {name: getattr(self, name) for name in names}
-
-    def set_params(self, **params: Any) -> Any:
-        """Set constructor parameters; returns ``self``."""
-        valid = self.get_params()
-        for name, value in params.items():
-            if name not in valid:
-                raise ConfigError(f"unknown parameter {name!r} for {type(self).__name__}")
-            setattr(self, name, value)
-        return self
 
     kind = "model"
 
@@ -73,7 +63,7 @@ class LearnedBehavior:
             raise ConfigError(f"smoothing must be a number >= 0, got {smoothing!r}")
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> Any:
+    def load(cls, path: str | os.PathLike[str]) -> Self:
         """Read a model written by ``save``; everything is validated (components included).
 
         The file may come from a stranger: see :mod:`behavior_hmm.models._modelfile` for
@@ -142,6 +132,29 @@ class LearnedBehavior:
         self.train_data_ = _modelfile.check_text(
             state.get("train_data"), "train_data", optional=True
         )
+        self.provenance_ = _check_provenance(state.get("provenance") or {})
+
+    def _record_provenance(self, dataset: Any) -> None:
+        """Where the training data came from: robot, control period, package, data hash."""
+        from behavior_hmm import __version__
+
+        meta = dataset.metadata
+        period = meta.get("control_period")
+        self.provenance_ = {
+            "env": str(meta.get("env") or meta.get("simulator") or "unknown"),
+            "control_period": float(period) if period is not None else CONTROL_PERIOD,
+            "package_version": __version__,
+            "dataset_sha256": dataset_hash(dataset),
+        }
+
+    def set_training_data(self, path: str | os.PathLike[str]) -> None:
+        """Record the training data file: as given and as an absolute path."""
+        self.train_data_ = str(path)
+        self.provenance_ = {
+            **getattr(self, "provenance_", {}),
+            "train_data": str(path),
+            "train_data_absolute": str(Path(path).resolve()),
+        }
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "hmm_"):
@@ -156,6 +169,7 @@ class LearnedBehavior:
 
     def goal_category(self, goal: Mapping[str, float]) -> int:
         """Observation category of a still window at ``goal`` (thesis Algorithm 1, o_g)."""
+        self._check_fitted()
         scores = self.observations_.score_window(self.goal_window(goal))
         return best_goal_category(scores, self.hmm_.C_counts_)
 
@@ -178,3 +192,39 @@ def check_rate_limit(value: Any) -> None:
     number = isinstance(value, int | float) and not isinstance(value, bool)
     if not number or not 0.0 <= float(value) <= 100.0:
         raise ConfigError(f"command_rate_limit must be a number in [0, 100], got {value!r}")
+
+
+#: The keys a model file's provenance may hold (text unless said otherwise).
+PROVENANCE_KEYS = (
+    "env",
+    "control_period",
+    "package_version",
+    "dataset_sha256",
+    "train_data",
+    "train_data_absolute",
+)
+
+
+def dataset_hash(dataset: Any) -> str:
+    """SHA-256 of a dataset's arrays and metadata (the same data gives the same hash)."""
+    digest = hashlib.sha256()
+    for name in ("t", *getattr(dataset, "sensor_channels", SENSOR_CHANNELS), "left", "right"):
+        digest.update(name.encode())
+        digest.update(np.ascontiguousarray(dataset.columns([name])).tobytes())
+    digest.update(np.ascontiguousarray(dataset.lengths, dtype=np.int64).tobytes())
+    digest.update(json.dumps(dataset.metadata, sort_keys=True, default=str).encode())
+    return digest.hexdigest()
+
+
+def _check_provenance(value: Any) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ModelFileError("provenance must be a mapping")
+    out: dict[str, Any] = {}
+    for key, item in value.items():
+        if key not in PROVENANCE_KEYS:
+            raise ModelFileError(f"unknown provenance key {key!r}")
+        if key == "control_period":
+            out[key] = _modelfile.check_number(item, "provenance control_period", positive=True)
+        else:
+            out[key] = _modelfile.check_text(item, f"provenance {key}")
+    return out

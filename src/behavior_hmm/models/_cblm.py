@@ -12,20 +12,20 @@ import os
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART
-from behavior_hmm.data import DEFAULT_CUTOFF_HZ, SENSOR_CHANNELS, Dataset, SignalPipeline
+from behavior_hmm.data import DEFAULT_CUTOFF_HZ, Dataset, SignalPipeline
 from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
-from behavior_hmm.models._goals import check_goal
+from behavior_hmm.models._goals import TOLERANCES, check_goal, check_input_names
 from behavior_hmm.models._sblm import (
     SBLM,
     _cobart_from,
@@ -33,6 +33,10 @@ from behavior_hmm.models._sblm import (
     _jsonable_params,
     _prefixed,
 )
+from behavior_hmm.runtime import Trace
+
+if TYPE_CHECKING:
+    from behavior_hmm.models._complex_policy import ComplexPolicy
 
 FloatArray = NDArray[np.float64]
 
@@ -148,14 +152,12 @@ class CBLM(LearnedBehavior):
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 1000:
                 raise ConfigError(f"{name} must be an integer in [{low}, 1000], got {value!r}")
 
-    def _checked(self) -> tuple[tuple[str, ...], list[Any], list[str]]:
+    def _checked(
+        self, available: Sequence[str] | None = None
+    ) -> tuple[tuple[str, ...], list[Any], list[str]]:
         self.check_params()
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
-        for name in inputs:
-            if name not in SENSOR_CHANNELS:
-                raise ConfigError(
-                    f"unknown input '{name}'; choose from {', '.join(SENSOR_CHANNELS)}"
-                )
+        check_input_names(inputs, available)
         components = list(self.components)
         if not components:
             raise ConfigError("a CBLM needs at least one component behavior")
@@ -176,7 +178,7 @@ class CBLM(LearnedBehavior):
             Demonstrations of the complex behavior whose ``behavior`` column names the
             active component on every row.
         """
-        inputs, components, names = self._checked()
+        inputs, components, names = self._checked(getattr(dataset, "sensor_channels", None))
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
         tags = dataset.behavior
@@ -197,7 +199,7 @@ class CBLM(LearnedBehavior):
                     field="behavior",
                 )
             states[row] = index[tag]
-        pipeline = SignalPipeline(inputs, self.cutoff_hz)
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
         overrides = {
@@ -233,6 +235,7 @@ class CBLM(LearnedBehavior):
         )
         self.effects_ = _effects(states, raw, lengths, len(components), inputs)
         self.train_data_: str | None = None  # set by the command line to the data file
+        self._record_provenance(dataset)
         self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
         return self
 
@@ -287,10 +290,12 @@ class CBLM(LearnedBehavior):
                 goal[channel] = values[channel]
             else:
                 goal[channel] = model.default_goal_[channel]
-        if "angle" in goal and abs(goal["angle"]) <= 3.0:
+        if "angle" in goal and abs(goal["angle"]) <= TOLERANCES["angle"]:
             goal["angle"] = 0.0  # an aligned exit observation means "face the object"
         if "distance" in goal:
-            goal["distance"] = float(np.clip(goal["distance"], 0.0, 1.2))
+            # within the component's own range of distances (never behind contact)
+            _, far = model.pipeline_.normalizer.ranges["distance"]
+            goal["distance"] = float(np.clip(goal["distance"], 0.0, far))
         return goal
 
     # -------------------------------------------------------------- generation
@@ -300,11 +305,30 @@ class CBLM(LearnedBehavior):
         start: Mapping[str, float] | None = None,
         goal: Mapping[str, float] | None = None,
         **kwargs: Any,
-    ) -> Any:
-        """Perform the complex behavior (see :func:`behavior_hmm.runtime.run_behavior`)."""
-        from behavior_hmm.runtime import run_behavior
+    ) -> Trace:
+        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop).
 
-        return run_behavior(self, env, start=start, goal=goal, **kwargs)
+        ``env`` is any Gymnasium env that meets the robot contract (docs/robots.md); see
+        :func:`behavior_hmm.models.perform` for the keyword arguments.
+        """
+        from behavior_hmm.models._policy import perform
+
+        return perform(self, env, start=start, goal=goal, **kwargs)
+
+    def policy(
+        self, goal: Mapping[str, float] | None = None, *, name: str = "", tolerance: float = 1.0
+    ) -> ComplexPolicy:
+        """The behavior's policy toward ``goal`` (``None``: the default goal).
+
+        Call ``reset()`` before a run and ``step({channel: value})`` once per control
+        period (see :class:`behavior_hmm.runtime.Policy`); no simulator is needed, so a
+        robot's own control loop can drive it (docs/robots.md). ``name`` is recorded as
+        the component's name in traces; ``tolerance`` scales the goal's tolerance.
+        """
+        from behavior_hmm.models._complex_policy import ComplexPolicy
+
+        self._check_fitted()
+        return ComplexPolicy(self, goal, name=name, tolerance=tolerance)
 
     # --------------------------------------------------------------- save/load
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -333,6 +357,7 @@ class CBLM(LearnedBehavior):
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
             "train_data": self.train_data_,
+            "provenance": dict(self.provenance_),
         }
         params = _jsonable_params({k: v for k, v in self.get_params().items() if k != "components"})
         _modelfile.dump(path, self.kind, params, state, arrays)
@@ -436,7 +461,7 @@ def _effects(
     input ``j`` — of its magnitude ``|x|`` for the angle (a turn shrinks the bearing
     from either side), of the value itself otherwise (an approach lowers the distance, a
     retreat raises it). The complex runtime uses the signs to pick which component can
-    still close a gap the plan has left (see ``runtime.ComplexController``).
+    still close a gap the plan has left (see ``models._complex_policy.ComplexPolicy``).
     """
     values = np.array(raw, dtype=np.float64)
     for j, name in enumerate(inputs):

@@ -1,4 +1,4 @@
-"""Closed-loop execution of a complex behavior: delegation to component behaviors."""
+"""The policy of a complex behavior: delegation to component behaviors."""
 
 from __future__ import annotations
 
@@ -8,24 +8,24 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data import SENSOR_CHANNELS
+from behavior_hmm.data._channels import within_tolerance
 from behavior_hmm.errors import UnreachableGoalError
-from behavior_hmm.models._goals import within_tolerance
-from behavior_hmm.runtime._simple import (
+from behavior_hmm.models._policy import (
     GoalTracking,
     RateLimited,
-    StepOutput,
-    make_controller,
+    make_policy,
+    read_channels,
     retarget,
 )
+from behavior_hmm.runtime._policy import StepOutput
 
 FloatArray = NDArray[np.float64]
 
 _ZERO = np.zeros(2)
 
 
-class ComplexController(GoalTracking, RateLimited):
-    """Runs a CBLM: plans over its own observation categories, delegates to components.
+class ComplexPolicy(GoalTracking, RateLimited):
+    """A CBLM's policy: plans over its own observation categories, delegates to components.
 
     Each cycle it categorizes the current observation window with its own CobART,
     plans the most likely observation path to the goal category and decodes the
@@ -60,13 +60,13 @@ class ComplexController(GoalTracking, RateLimited):
         self.name = name
         self._tolerance = float(tolerance)
         self._set_goal(model, goal)
-        self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
-        self._channels = model.inputs_
+        self._channels = tuple(model.inputs_)
+        self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
         self._live = model.observations_.stream()
         norm = model.pipeline_.normalizer
-        self._lo = np.asarray(norm._lo, dtype=np.float64)
-        self._gain = np.asarray(norm._gain, dtype=np.float64)
+        self._lo = np.array(norm.lo, dtype=np.float64)
+        self._gain = np.array(norm.gain, dtype=np.float64)
         # the CBLM's runtime additions (each off in the thesis preset)
         self._may_repair = bool(model.repair)
         self._may_preempt = bool(model.preempt_uncovered)
@@ -75,7 +75,7 @@ class ComplexController(GoalTracking, RateLimited):
         # one controller per component, built now (before any motion) and renewed with
         # each intermediate goal: building one takes ~0.5 ms, too long inside a cycle
         self._children: dict[int, Any] = {
-            k: make_controller(component, None, name=model.names_[k])
+            k: make_policy(component, None, name=model.names_[k])
             for k, component in enumerate(model.components_)
         }
         rate = float(getattr(model, "command_rate_limit", 0.0))
@@ -122,15 +122,14 @@ class ComplexController(GoalTracking, RateLimited):
                 return alternative
             raise
 
-    def _values(self, reading: FloatArray, x: FloatArray) -> dict[str, float]:
+    def _values(self, reading: Mapping[str, float], x: FloatArray) -> dict[str, float]:
         filtered = (x + 1.0) / self._gain + self._lo
-        values = dict(zip(self._channels, filtered.tolist(), strict=True))
-        for j, name in enumerate(SENSOR_CHANNELS):
-            values.setdefault(name, float(reading[j]))
+        values = dict(reading)
+        values.update(zip(self._channels, filtered.tolist(), strict=True))
         return values
 
-    def step(self, reading: FloatArray) -> StepOutput:
-        """Decide the command for one reading (physical units, SENSOR_CHANNELS order).
+    def step(self, reading: Mapping[str, float]) -> StepOutput:
+        """Decide the command for one reading ``{channel: value}`` (physical units).
 
         With the model's ``command_rate_limit`` a new component continues from the
         running command (each component limits its own change per cycle), and the
@@ -140,8 +139,8 @@ class ComplexController(GoalTracking, RateLimited):
             return self._limited(self._stopping)
         return self._limited(self._decide(reading))
 
-    def _decide(self, reading: FloatArray) -> StepOutput:
-        x = self._pipe.step(reading[self._idx])
+    def _decide(self, reading: Mapping[str, float]) -> StepOutput:
+        x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
         category, novel, _ = self._live.update(x)
         if category != self._reachable_from:
             category = self._plannable(category)
@@ -241,7 +240,7 @@ class ComplexController(GoalTracking, RateLimited):
         return None
 
     def _repair(
-        self, values: Mapping[str, float], reading: FloatArray, category: int, novel: bool
+        self, values: Mapping[str, float], reading: Mapping[str, float], category: int, novel: bool
     ) -> StepOutput:
         """Run a component whose goal channels cover one the complex goal misses.
 
@@ -279,7 +278,7 @@ class ComplexController(GoalTracking, RateLimited):
         self,
         comp: int,
         sub_goal: dict[str, float],
-        reading: FloatArray,
+        reading: Mapping[str, float],
         category: int,
         novel: bool,
         renew: bool = False,
@@ -296,7 +295,7 @@ class ComplexController(GoalTracking, RateLimited):
         return self._run_child(reading, category, novel, changed)
 
     def _run_child(
-        self, reading: FloatArray, category: int, novel: bool, changed: bool
+        self, reading: Mapping[str, float], category: int, novel: bool, changed: bool
     ) -> StepOutput:
         try:
             out = self._child.step(reading)

@@ -2,21 +2,41 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Final
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M, SENSOR_CHANNELS
+from behavior_hmm.data._channels import (
+    CHANNEL_NAME,
+    CHANNELS,
+    SENSOR_CHANNELS,
+    TOLERANCES,
+    within_tolerance,
+)
+from behavior_hmm.data._validate import suggest
 from behavior_hmm.errors import ConfigError
 
-#: Physical tolerance of a goal on each channel (DESIGN §5: 3 deg, 0.01 m).
-TOLERANCES: Final[dict[str, float]] = {
-    "angle": ANGLE_TOLERANCE_DEG,
-    "distance": DISTANCE_TOLERANCE_M,
-    "linear_velocity": 0.01,
-    "angular_velocity": 5.0,
-}
+__all__ = ["TOLERANCES", "check_goal", "goal_candidates", "within_tolerance"]
+
+
+def check_input_names(inputs: Sequence[str], available: Sequence[str] | None = None) -> None:
+    """Refuse inputs that are not sensor channels of ``available`` (a dataset's channels).
+
+    Without ``available`` (parameters checked before any data is read, or a model file
+    loaded), a name must be a known sensor channel or a well-formed name a dataset may
+    declare (docs/robots.md); command channels are never inputs.
+    """
+    for name in inputs:
+        if available is not None:
+            if name not in available:
+                raise ConfigError(
+                    f"unknown input '{name}'; choose from {', '.join(available)}"
+                    f"{suggest(str(name), list(available))}"
+                )
+            continue
+        spec = CHANNELS.get(name)
+        if (spec is not None and spec.kind != "sensor") or not CHANNEL_NAME.match(str(name)):
+            raise ConfigError(f"unknown input '{name}'; choose from {', '.join(SENSOR_CHANNELS)}")
 
 
 def check_goal(goal: Mapping[str, float], allowed: tuple[str, ...]) -> dict[str, float]:
@@ -25,10 +45,10 @@ def check_goal(goal: Mapping[str, float], allowed: tuple[str, ...]) -> dict[str,
         raise ConfigError("the goal is empty; give at least one channel, e.g. angle=0")
     out: dict[str, float] = {}
     for name, value in goal.items():
-        if name not in SENSOR_CHANNELS:
-            raise ConfigError(
-                f"unknown goal channel '{name}'; choose from {', '.join(SENSOR_CHANNELS)}"
-            )
+        spec = CHANNELS.get(name)
+        if spec is None or spec.kind != "sensor" or spec.tolerance is None:
+            goals = [c for c, s in CHANNELS.items() if s.kind == "sensor" and s.tolerance]
+            raise ConfigError(f"unknown goal channel '{name}'; choose from {', '.join(goals)}")
         if name not in allowed:
             raise ConfigError(
                 f"goal channel '{name}' is not an input of this model "
@@ -37,10 +57,10 @@ def check_goal(goal: Mapping[str, float], allowed: tuple[str, ...]) -> dict[str,
         v = float(value)
         if v != v or v in (float("inf"), float("-inf")):
             raise ConfigError(f"goal {name} must be a finite number, got {value}")
-        if name == "angle" and not -180.0 <= v <= 180.0:
-            raise ConfigError(f"goal angle {v:g} deg not in [-180, 180]")
-        if name == "distance" and not 0.0 <= v <= 1.2:
-            raise ConfigError(f"goal distance {v:g} m not in [0, 1.2]")
+        lo, hi = (-180.0, 180.0) if spec.wraps else spec.bounds or spec.range
+        lo = max(lo, 0.0) if spec.range[0] >= 0.0 else lo  # e.g. a distance is never < 0
+        if not lo <= v <= hi:
+            raise ConfigError(f"goal {name} {v:g} {spec.unit} not in [{lo:g}, {hi:g}]")
         out[name] = v
     return out
 
@@ -107,16 +127,3 @@ def goal_candidates(
     near = near[np.argsort(gap[near], kind="stable")]
     out = [best] + [int(k) for k in near if k != best]
     return np.asarray(out[:limit], dtype=np.int64)
-
-
-def within_tolerance(
-    values: Mapping[str, float], goal: Mapping[str, float], scale: float = 1.0
-) -> bool:
-    """True when every goal channel of ``values`` lies within ``scale`` times its tolerance."""
-    for name, target in goal.items():
-        error = values[name] - target
-        if name == "angle":
-            error = (error + 180.0) % 360.0 - 180.0
-        if abs(error) > scale * TOLERANCES[name]:
-            return False
-    return True

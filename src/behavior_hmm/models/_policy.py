@@ -1,33 +1,45 @@
-"""Closed-loop execution of a simple behavior (thesis Algorithm 1)."""
+"""The policy of a simple behavior: one control cycle of thesis Algorithm 1."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any, NamedTuple
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data import SENSOR_CHANNELS
-from behavior_hmm.errors import UnreachableGoalError
-from behavior_hmm.models import SBLM
-from behavior_hmm.models._goals import TOLERANCES, within_tolerance
+from behavior_hmm.data._channels import SENSOR_CHANNELS, TOLERANCES, within_tolerance
+from behavior_hmm.errors import ConfigError, UnreachableGoalError
+from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, run_policy
+from behavior_hmm.runtime._policy import StepOutput
+
+if TYPE_CHECKING:
+    from behavior_hmm.models._sblm import SBLM
 
 FloatArray = NDArray[np.float64]
 
 _ZERO = np.zeros(2)
 
+#: The channels the stop-at-rest rule of an SBLM reads (``stop_at_rest``).
+REST_CHANNELS: tuple[str, ...] = ("linear_velocity", "angular_velocity")
 
-class StepOutput(NamedTuple):
-    """What a controller decided in one control cycle."""
 
-    command: FloatArray
-    observation: int
-    novel: bool
-    state: int
-    component: str
-    plan_changed: bool
-    done: bool
+def read_channels(model: Any) -> tuple[str, ...]:
+    """The sensor channels a model's policy reads: the data contract's first, in order.
+
+    A model reads its ``inputs_``; an SBLM with ``stop_at_rest`` also reads
+    ``linear_velocity`` and ``angular_velocity`` (its stop rule waits for rest); a CBLM
+    also reads whatever its components read (recursively).
+    """
+    names: list[str] = list(getattr(model, "inputs_", ()))
+    if bool(getattr(model, "stop_at_rest", False)):
+        names += [c for c in REST_CHANNELS if c not in names]
+    for component in getattr(model, "components_", None) or ():
+        names += [c for c in read_channels(component) if c not in names]
+    return (
+        *[c for c in SENSOR_CHANNELS if c in names],
+        *[c for c in names if c not in SENSOR_CHANNELS],
+    )
 
 
 class GoalTracking:
@@ -130,8 +142,8 @@ class RateLimited:
         return out._replace(command=u)
 
 
-class SimpleController(GoalTracking, RateLimited):
-    """Runs an SBLM toward a goal one 16 ms reading at a time.
+class SimplePolicy(GoalTracking, RateLimited):
+    """An SBLM's policy: it runs the behavior toward a goal one reading at a time.
 
     Each cycle: filter and normalize the reading exactly as in training, categorize
     the current observation window (CobART, no learning), re-plan the most likely
@@ -168,8 +180,8 @@ class SimpleController(GoalTracking, RateLimited):
         self._set_goal(model, goal)
         self._at_rest = bool(getattr(model, "stop_at_rest", False))
         self._tolerance = float(tolerance)
-        self._idx = [SENSOR_CHANNELS.index(c) for c in model.inputs_]
-        self._channels = model.inputs_
+        self._channels = tuple(model.inputs_)
+        self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
         self._live = model.observations_.stream()
         self._recognize = bool(model.primitive_recognition)
@@ -179,22 +191,16 @@ class SimpleController(GoalTracking, RateLimited):
         self._gens = model.generators_
         self._scale = model.command_scale_
         norm = model.pipeline_.normalizer
-        self._lo = np.asarray(norm._lo, dtype=np.float64)
-        self._gain = np.asarray(norm._gain, dtype=np.float64)
-        self._window = int(model.generators_.window)
-        self._history = int(model.command_history)
-        self._delta = model.generator_output == "delta"
-        self._delta_scale = float(model.delta_scale_)
+        self._lo = np.array(norm.lo, dtype=np.float64)
+        self._gain = np.array(norm.gain, dtype=np.float64)
         self._use_history = model.state_decoding == "history"
         self._log_A = model.hmm_.log_A_
         self._log_B = model.hmm_.log_B_
         self._log_pi = model.hmm_.log_pi_
-        n_ch = len(self._idx)
-        self._buf = np.zeros((n_ch, self._window))
-        self._clock = int(model.onset_clock)
-        self._k = 0
-        extra = 2 * self._history + (2 if self._delta else 0) + (1 if self._clock else 0)
-        self._feat = np.zeros(n_ch * self._window + extra)
+        layout = model.feature_layout(
+            len(self._channels), int(model.generators_.window), float(model.delta_scale_)
+        )
+        self._features = layout.online()
         self._started = False
         self._state = -1
         self._last_obs = -1
@@ -215,17 +221,16 @@ class SimpleController(GoalTracking, RateLimited):
         self._last_obs = -1
         self._alpha = self._log_pi.copy()
         self._prior = self._log_pi
-        self._feat[:] = 0.0
-        self._k = 0
+        self._features.reset()
         self._limit_reset()
 
-    def check_reachable(self, reading: FloatArray) -> None:
+    def check_reachable(self, reading: Mapping[str, float]) -> None:
         """Raise UnreachableGoalError if no plan leads from ``reading`` to the goal."""
-        probe = SimpleController(self.model, self.goal)
+        probe = SimplePolicy(self.model, self.goal)
         probe.step(reading)
 
-    def step(self, reading: FloatArray) -> StepOutput:
-        """Decide the command for one reading (physical units, SENSOR_CHANNELS order).
+    def step(self, reading: Mapping[str, float]) -> StepOutput:
+        """Decide the command for one reading ``{channel: value}`` (physical units).
 
         The model's ``command_rate_limit`` bounds the change per cycle (see RateLimited).
         """
@@ -233,13 +238,9 @@ class SimpleController(GoalTracking, RateLimited):
             return self._limited(self._stopping)
         return self._limited(self._decide(reading))
 
-    def _decide(self, reading: FloatArray) -> StepOutput:
-        x = self._pipe.step(reading[self._idx])
-        if not self._started:
-            self._buf[:] = x[:, None]
-        else:
-            self._buf[:, :-1] = self._buf[:, 1:]
-            self._buf[:, -1] = x
+    def _decide(self, reading: Mapping[str, float]) -> StepOutput:
+        x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
+        self._features.push(x)
         category, novel, _ = self._live.update(x)
         if self._recognize:
             self._prim_live.update(x)
@@ -262,23 +263,7 @@ class SimpleController(GoalTracking, RateLimited):
         changed = state != self._state
         self._state = state
         self._started = True
-        n = self._buf.size
-        feat = self._feat
-        feat[:n] = self._buf.ravel()
-        if self._clock:
-            feat[-1] = min(self._k, self._clock) / self._clock
-            self._k += 1
-        out = self._gens.predict_one(feat, state)
-        h = n + 2 * self._history
-        if self._delta:
-            y = np.clip(feat[h - 2 : h] + self._delta_scale * out, -1.5, 1.5)
-            feat[h : h + 2] = np.clip((y - feat[h - 2 : h]) / self._delta_scale, -1.0, 1.0)
-        else:
-            y = out
-        if self._history:
-            hist = feat[n:h]
-            hist[:-2] = hist[2:]
-            hist[-2:] = y
+        y = self._features.commit(self._gens.predict_one(self._features.row(), state))
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
 
     def _decode(self, category: int) -> int:
@@ -318,16 +303,9 @@ class SimpleController(GoalTracking, RateLimited):
         return int(np.argmin(miss))
 
 
-_LIN = SENSOR_CHANNELS.index("linear_velocity")
-_ANG = SENSOR_CHANNELS.index("angular_velocity")
-
-
-def _at_rest(reading: FloatArray) -> bool:
+def _at_rest(reading: Mapping[str, float]) -> bool:
     """Whether a reading shows the robot (nearly) still: |yaw rate|, |speed| within tolerance."""
-    return bool(
-        abs(reading[_ANG]) <= TOLERANCES["angular_velocity"]
-        and abs(reading[_LIN]) <= TOLERANCES["linear_velocity"]
-    )
+    return all(abs(reading[c]) <= TOLERANCES[c] for c in REST_CHANNELS)
 
 
 def retarget(
@@ -374,12 +352,73 @@ def retarget(
         )
 
 
-def make_controller(
+def make_policy(
     model: Any, goal: Mapping[str, float] | None, name: str = "", tolerance: float = 1.0
 ) -> Any:
-    """The controller for a fitted SBLM or CBLM (``tolerance`` scales the stop tolerance)."""
+    """The policy of a fitted SBLM or CBLM (``tolerance`` scales the stop tolerance)."""
     if getattr(model, "kind", None) == "CBLM":
-        from behavior_hmm.runtime._complex import ComplexController
+        from behavior_hmm.models._complex_policy import ComplexPolicy
 
-        return ComplexController(model, goal, name=name, tolerance=tolerance)
-    return SimpleController(model, goal, name=name, tolerance=tolerance)
+        return ComplexPolicy(model, goal, name=name, tolerance=tolerance)
+    return SimplePolicy(model, goal, name=name, tolerance=tolerance)
+
+
+def perform(
+    model: Any,
+    env: Any,
+    *,
+    start: Mapping[str, float] | None = None,
+    goal: Mapping[str, float] | None = None,
+    seed: int | None = None,
+    noise: float | None = None,
+    max_steps: int | None = None,
+    pushes: Sequence[Mapping[str, float]] | None = None,
+    fault_hold_s: float = DEFAULT_FAULT_HOLD_S,
+) -> Trace:
+    """Perform a learned behavior (SBLM or CBLM) in ``env`` from ``start`` to ``goal``.
+
+    Parameters
+    ----------
+    model
+        A fitted SBLM or CBLM.
+    env
+        Any Gymnasium env that meets the robot contract (docs/robots.md).
+    start
+        ``{"angle": deg, "distance": m}`` for ``env.reset``; ``None`` keeps the env default.
+    goal
+        Goal in physical units (e.g. ``{"angle": 0}``); ``None`` uses the model's default.
+    seed, noise
+        Passed to ``env.reset`` (sensor noise: sigma times each channel's range).
+    max_steps
+        Step limit; default the model's ``max_steps_``.
+    pushes
+        Scheduled pushes ``{"step", "angle", "distance"}`` (see the env's reset options).
+    fault_hold_s
+        Seconds a non-finite reading on a channel the model reads is replaced by its
+        last good value (default 0.1 s); past that the robot stops and the trace's
+        ``reason`` is ``"sensor_fault"`` (see :func:`behavior_hmm.runtime.run_policy`).
+
+    Raises
+    ------
+    UnreachableGoalError
+        Before any motion, when no observation path leads from the start to the goal,
+        or when the goal is one the model was never shown to stop at (a simple
+        behavior's ``check_stoppable``).
+    """
+    stoppable = getattr(model, "check_stoppable", None)
+    if stoppable is not None:
+        stoppable(goal)
+    policy = make_policy(model, goal)
+    limit = int(max_steps if max_steps is not None else model.max_steps_)
+    if limit < 1:
+        raise ConfigError(f"max_steps must be >= 1, got {limit}")
+    return run_policy(
+        policy,
+        env,
+        start=start,
+        seed=seed,
+        noise=noise,
+        max_steps=limit,
+        pushes=pushes,
+        fault_hold_s=fault_hold_s,
+    )

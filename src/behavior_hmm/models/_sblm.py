@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,7 +19,12 @@ from behavior_hmm.data import (
     SignalPipeline,
 )
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
-from behavior_hmm.generators import MotionGenerators, make_windows
+from behavior_hmm.generators import MotionGenerators
+from behavior_hmm.generators._features import (
+    FeatureLayout,
+    command_features,
+    shifted_windows,
+)
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
@@ -28,39 +33,18 @@ from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
 from behavior_hmm.models._goals import (
     TOLERANCES,
     check_goal,
+    check_input_names,
 )
+from behavior_hmm.runtime import Trace
+
+if TYPE_CHECKING:
+    from behavior_hmm.models._policy import SimplePolicy
 
 FloatArray = NDArray[np.float64]
 
+#: Goal channels (and nominal goals) of a dataset whose metadata names none (a log
+#: imported without a registered behavior): the data contract's two goal channels.
 _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
-#: The channel each single-axis teacher behavior steers to its goal (DESIGN §5 stop rule:
-#: turn |angle| <= 3 deg, approach distance <= 0.01 m); other inputs stay unconstrained.
-_BEHAVIOR_GOAL_CHANNELS = {
-    "turn": ("angle",),
-    "approach": ("distance",),
-    "retreat": ("distance",),
-}
-
-
-def command_features(
-    commands: FloatArray, lengths: Sequence[int] | NDArray[np.integer[Any]], history: int
-) -> FloatArray:
-    """Previous ``history`` normalized commands per row (zeros before an episode starts).
-
-    Row ``t`` holds ``[u[t-history], ..., u[t-1]]`` flattened (left, right per step),
-    the efference copy a motion generator reads beside its sensor window.
-    """
-    n = commands.shape[0]
-    out = np.zeros((n, 2 * history), dtype=np.float64)
-    start = 0
-    for length in lengths:
-        stop = start + int(length)
-        for lag in range(1, history + 1):
-            col = 2 * (history - lag)
-            if length > lag:
-                out[start + lag : stop, col : col + 2] = commands[start : stop - lag]
-        start = stop
-    return out
 
 
 def margin_rows(
@@ -87,26 +71,6 @@ def margin_rows(
             labels.append(np.full(hi - lo, s[a], dtype=np.int64))
         start = stop
     return np.concatenate(rows), np.concatenate(labels)
-
-
-def onset_features(lengths: Sequence[int] | NDArray[np.integer[Any]], clock: int) -> FloatArray:
-    """The onset clock per row: ``min(t, clock) / clock``, t = control cycles since the start."""
-    steps = np.concatenate([np.arange(int(n)) for n in lengths])
-    return (np.minimum(steps, clock) / clock)[:, None]
-
-
-def shifted_windows(
-    features: FloatArray, n_channels: int, window: int, sigma: float, rng: np.random.Generator
-) -> FloatArray:
-    """A copy of ``features`` whose sensor windows are offset by one Gaussian draw per channel.
-
-    The windows are the first ``n_channels * window`` columns, channel-major (as
-    :func:`~behavior_hmm.generators.make_windows` lays them out).
-    """
-    noisy = features.copy()
-    offsets = rng.normal(0.0, sigma, size=(features.shape[0], n_channels))
-    noisy[:, : n_channels * window] += np.repeat(offsets, window, axis=1)
-    return noisy
 
 
 class SBLM(LearnedBehavior):
@@ -270,15 +234,12 @@ class SBLM(LearnedBehavior):
             raise ConfigError(f"batch_size must be an integer >= 1, got {size!r}")
         check_rate_limit(self.command_rate_limit)
 
-    def _checked_inputs(self) -> tuple[str, ...]:
+    def _checked_inputs(self, available: Sequence[str] | None = None) -> tuple[str, ...]:
+        """The inputs, each one of ``available`` (a dataset's channels; default: all known)."""
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
         if not inputs:
             raise ConfigError("inputs must name at least one sensor channel")
-        for name in inputs:
-            if name not in SENSOR_CHANNELS:
-                raise ConfigError(
-                    f"unknown input '{name}'; choose from {', '.join(SENSOR_CHANNELS)}"
-                )
+        check_input_names(inputs, available)
         if len(set(inputs)) != len(inputs):
             raise ConfigError(f"inputs repeat a channel: {inputs}")
         if self.generator_output not in ("command", "delta"):
@@ -322,10 +283,10 @@ class SBLM(LearnedBehavior):
             ``self``.
         """
         self.check_params()
-        inputs = self._checked_inputs()
+        inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
-        pipeline = SignalPipeline(inputs, self.cutoff_hz)
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
         prim_params = self._cobart_overrides(self.primitive_params, x, lengths)
@@ -350,7 +311,8 @@ class SBLM(LearnedBehavior):
         prev = command_features(y, lengths, 1)
         step = y - prev
         delta_scale = float(np.max(np.abs(step))) or 1.0
-        features = self._features(x, y, lengths, prim.window, delta_scale)
+        layout = self.feature_layout(len(inputs), int(prim.window), delta_scale)
+        features = layout.offline(x, y, lengths)
         target = y if self.generator_output == "command" else np.clip(step / delta_scale, -1, 1)
         gen_states = states
         groups = np.repeat(dataset.episode_ids, lengths)
@@ -389,8 +351,9 @@ class SBLM(LearnedBehavior):
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.stops_ = np.array(raw[finals], dtype=np.float64)
         self.train_data_: str | None = None  # set by the command line to the data file
+        self._record_provenance(dataset)
         self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
-        self.default_goal_ = self._default_goal(inputs)
+        self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
         self.train_states_ = states
         self.train_observations_ = observations
@@ -401,32 +364,18 @@ class SBLM(LearnedBehavior):
             return self.hidden
         return 5 * n_channels  # thesis table 6.2: 5 / 10 / 15 units for 1 / 2 / 3 channels
 
-    def _features(
-        self,
-        x: FloatArray,
-        y: FloatArray,
-        lengths: Sequence[int] | NDArray[np.integer[Any]],
-        window: int,
-        delta_scale: float,
-    ) -> FloatArray:
-        """Generator inputs: sensor windows, then the efference copy (see the runtime)."""
-        parts = [make_windows(x, lengths, window)]
-        if self.command_history > 0:
-            parts.append(command_features(y, lengths, self.command_history))
-            if self.generator_output == "delta":
-                # previous command and its last change (in units of delta_scale)
-                prev2 = command_features(y, lengths, 2)
-                parts.append(np.clip((prev2[:, 2:] - prev2[:, :2]) / delta_scale, -1, 1))
-        if self.onset_clock > 0:
-            parts.append(onset_features(lengths, self.onset_clock))
-        return np.hstack(parts) if len(parts) > 1 else parts[0]
-
-    def _n_features(self, n_channels: int, window: int) -> int:
-        """Width of a generator input row (see :meth:`_features`)."""
-        width = n_channels * window + 2 * self.command_history
-        if self.command_history > 0 and self.generator_output == "delta":
-            width += 2
-        return width + (1 if self.onset_clock > 0 else 0)
+    def feature_layout(
+        self, n_channels: int, window: int, delta_scale: float = 1.0
+    ) -> FeatureLayout:
+        """The generators' input row: sensor windows, efference copy, onset clock."""
+        return FeatureLayout(
+            n_channels=n_channels,
+            window=window,
+            history=int(self.command_history),
+            delta=self.generator_output == "delta",
+            clock=int(self.onset_clock),
+            delta_scale=delta_scale,
+        )
 
     def _cobart_overrides(
         self, params: Mapping[str, Any] | None, x: FloatArray, lengths: Any
@@ -452,17 +401,25 @@ class SBLM(LearnedBehavior):
             np.concatenate([groups, groups]),
         )
 
-    def _default_goal(self, inputs: tuple[str, ...]) -> dict[str, float]:
-        channels = _BEHAVIOR_GOAL_CHANNELS.get(self.behavior_, tuple(_DEFAULT_GOALS))
-        if not any(c in inputs for c in channels):
-            channels = tuple(_DEFAULT_GOALS)
+    def _default_goal(
+        self, inputs: tuple[str, ...], declared: Mapping[str, float] | None
+    ) -> dict[str, float]:
+        """Where the demonstrations end on the behavior's goal channels.
+
+        The goal channels and their nominal goals travel in the dataset's metadata
+        (``goal``, written by ``collect`` from the behavior's spec); a dataset without
+        them, or none of whose goal channels is an input, aims at the data contract's
+        angle and distance among the inputs.
+        """
+        nominal_goals = {str(c): float(v) for c, v in (declared or {}).items()}
+        if not any(c in inputs for c in nominal_goals):
+            nominal_goals = dict(_DEFAULT_GOALS)
         goal = {}
-        for c in channels:
+        for c, nominal in nominal_goals.items():
             if c not in inputs:
                 continue
-            # where the demonstrations end; the nominal 0 deg / 0 m when they end there
+            # where the demonstrations end; the nominal goal when they end there
             end = self.rest_values_[c]
-            nominal = _DEFAULT_GOALS[c]
             goal[c] = nominal if abs(end - nominal) <= TOLERANCES[c] else round(end, 3)
         if not goal:
             goal = {inputs[0]: self.rest_values_[inputs[0]]}
@@ -526,15 +483,30 @@ class SBLM(LearnedBehavior):
         start: Mapping[str, float] | None = None,
         goal: Mapping[str, float] | None = None,
         **kwargs: Any,
-    ) -> Any:
-        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop, 16 ms).
+    ) -> Trace:
+        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop).
 
-        See :func:`behavior_hmm.runtime.run_behavior` for the keyword arguments and the
-        returned :class:`~behavior_hmm.runtime.Trace`.
+        ``env`` is any Gymnasium env that meets the robot contract (docs/robots.md); see
+        :func:`behavior_hmm.models.perform` for the keyword arguments.
         """
-        from behavior_hmm.runtime import run_behavior
+        from behavior_hmm.models._policy import perform
 
-        return run_behavior(self, env, start=start, goal=goal, **kwargs)
+        return perform(self, env, start=start, goal=goal, **kwargs)
+
+    def policy(
+        self, goal: Mapping[str, float] | None = None, *, name: str = "", tolerance: float = 1.0
+    ) -> SimplePolicy:
+        """The behavior's policy toward ``goal`` (``None``: the default goal).
+
+        Call ``reset()`` before a run and ``step({channel: value})`` once per control
+        period (see :class:`behavior_hmm.runtime.Policy`); no simulator is needed, so a
+        robot's own control loop can drive it (docs/robots.md). ``name`` is recorded as
+        the component's name in traces; ``tolerance`` scales the goal's tolerance.
+        """
+        from behavior_hmm.models._policy import SimplePolicy
+
+        self._check_fitted()
+        return SimplePolicy(self, goal, name=name, tolerance=tolerance)
 
     # --------------------------------------------------------------- save/load
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -563,6 +535,7 @@ class SBLM(LearnedBehavior):
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
             "train_data": self.train_data_,
+            "provenance": dict(self.provenance_),
         }
         return state, arrays
 
@@ -619,7 +592,7 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("generator count does not match the primitives")
         if gens.window != prim.window:
             raise ModelFileError("generator window differs from the primitives' window")
-        if gens.n_features_in_ != model._n_features(len(inputs), int(prim.window)):
+        if gens.n_features_in_ != model.feature_layout(len(inputs), int(prim.window)).width:
             raise ModelFileError("generator inputs do not match the model's parameters")
         model.inputs_ = inputs
         model.pipeline_ = pipeline

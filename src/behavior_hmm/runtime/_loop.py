@@ -20,10 +20,10 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data import SENSOR_CHANNELS
+from behavior_hmm.data._channels import within_tolerance
 from behavior_hmm.errors import ConfigError
-from behavior_hmm.models._goals import within_tolerance
-from behavior_hmm.runtime._simple import make_controller
+from behavior_hmm.runtime._policy import Policy
+from behavior_hmm.runtime._robot import Robot
 from behavior_hmm.runtime._trace import Trace
 
 FloatArray = NDArray[np.float64]
@@ -31,9 +31,6 @@ FloatArray = NDArray[np.float64]
 #: Default longest time (s) a non-finite reading is replaced by its last good value
 #: (0.1 s: 6 control periods of 16 ms).
 DEFAULT_FAULT_HOLD_S: Final[float] = 0.1
-
-#: The channels the stop-at-rest rule of an SBLM reads (``stop_at_rest``).
-_REST_CHANNELS: Final[frozenset[str]] = frozenset({"linear_velocity", "angular_velocity"})
 
 
 def start_options(
@@ -56,45 +53,31 @@ def start_options(
     return options
 
 
-def channels_read(model: Any) -> tuple[str, ...]:
-    """The sensor channels a model's controller reads, in ``SENSOR_CHANNELS`` order.
-
-    A model reads its ``inputs_``; an SBLM with ``stop_at_rest`` also reads
-    ``linear_velocity`` and ``angular_velocity`` (its stop rule waits for rest); a
-    CBLM also reads whatever its components read (recursively). Only these channels
-    are guarded by the sensor-fault policy of :func:`run_controller`; the others reach
-    the controller unchanged, and the controllers ignore them.
-    """
-    names: set[str] = set(getattr(model, "inputs_", ()))
-    if bool(getattr(model, "stop_at_rest", False)):
-        names |= _REST_CHANNELS
-    for component in getattr(model, "components_", None) or ():
-        names.update(channels_read(component))
-    return tuple(c for c in SENSOR_CHANNELS if c in names)
-
-
 class SensorHold:
     """The sensor-fault policy: hold a read channel's last good value for a while.
 
     Parameters
     ----------
     channels
-        Channels guarded (those the controller reads); others pass unchanged.
+        Every channel of a reading, in its order.
+    guarded
+        Channels guarded (those the policy reads); others pass unchanged.
     hold_steps
         Most consecutive non-finite readings of one channel replaced by its last good
         value; one more is a fault. A non-finite reading before any good value of its
         channel is a fault at once.
     """
 
-    def __init__(self, channels: Iterable[str], hold_steps: int) -> None:
-        names = tuple(channels)
-        unknown = [c for c in names if c not in SENSOR_CHANNELS]
+    def __init__(self, channels: Sequence[str], guarded: Iterable[str], hold_steps: int) -> None:
+        names = tuple(guarded)
+        unknown = [c for c in names if c not in channels]
         if unknown:
             raise ConfigError(
-                f"unknown channel(s) {', '.join(unknown)}; choose from {', '.join(SENSOR_CHANNELS)}"
+                f"the robot has no channel(s) {', '.join(unknown)} that the behavior reads "
+                f"(the robot's: {', '.join(channels)})"
             )
-        self.channels = tuple(c for c in SENSOR_CHANNELS if c in names)
-        self._idx = np.array([SENSOR_CHANNELS.index(c) for c in self.channels], dtype=np.intp)
+        self.channels = tuple(c for c in channels if c in names)
+        self._idx = np.array([list(channels).index(c) for c in self.channels], dtype=np.intp)
         self.hold_steps = int(hold_steps)
         self._last = np.full(len(self._idx), np.nan)
         self._age = np.zeros(len(self._idx), dtype=np.int64)
@@ -125,15 +108,6 @@ class SensorHold:
         return held, int(bad.sum())
 
 
-def _control_period(env: Any) -> float:
-    """The env's control period (s): ``env.unwrapped.control_period`` or its params'."""
-    base = env.unwrapped
-    period = getattr(base, "control_period", None)
-    if period is None:
-        period = base.params.control_period
-    return float(period)
-
-
 def hold_steps(fault_hold_s: float, control_period: float) -> int:
     """Control periods a reading may be held: ``floor(fault_hold_s / control_period)``."""
     if isinstance(fault_hold_s, bool) or not isinstance(fault_hold_s, int | float | np.number):
@@ -152,8 +126,8 @@ def _stop(env: Any) -> None:
         pass
 
 
-def run_controller(
-    controller: Any,
+def run_policy(
+    policy: Policy,
     env: Any,
     *,
     start: Mapping[str, float] | None = None,
@@ -162,49 +136,58 @@ def run_controller(
     max_steps: int = 2000,
     pushes: Sequence[Mapping[str, float]] | None = None,
     fault_hold_s: float = DEFAULT_FAULT_HOLD_S,
-    read_channels: Iterable[str] | None = None,
 ) -> Trace:
-    """Reset ``env`` at ``start`` and run ``controller`` until done or ``max_steps``.
+    """Reset ``env`` at ``start`` and run ``policy`` until done or ``max_steps``.
 
+    ``env`` is any Gymnasium env that meets the robot contract (docs/robots.md); each
+    cycle the policy gets ``{channel: value}`` and its command goes to ``env.step``.
     The robot is always commanded to stop at the end, and the trace's outcome is
-    judged on the simulator's noise-free state after that stop. An exception raised
-    inside the loop (by the controller or the env, KeyboardInterrupt included) first
-    commands zero wheel speed (best effort: if that fails too, the original exception
-    still propagates), then propagates. An exception before any command was sent
-    (e.g. an unreachable goal) sends none: the robot is still at rest after the reset.
+    judged on the env's noise-free observation after that stop
+    (``info["true_observation"]``, else the observation). An exception raised inside
+    the loop (by the policy or the env, KeyboardInterrupt included) first commands zero
+    wheel speed (best effort: if that fails too, the original exception still
+    propagates), then propagates. An exception before any command was sent (e.g. an
+    unreachable goal) sends none: the robot is still at rest after the reset.
 
     Parameters
     ----------
+    policy
+        What :class:`~behavior_hmm.runtime.Policy` says: ``goal``, ``channels``,
+        ``reset()``, ``step(reading)``.
+    start
+        ``{"angle": deg, "distance": m}`` for ``env.reset``; ``None`` keeps the env's default.
+    seed, noise, pushes
+        Passed to ``env.reset`` (``noise`` and ``push`` are options of our envs; a robot
+        that does not offer them refuses them).
+    max_steps
+        Step limit (control periods).
     fault_hold_s
-        Sensor-fault policy (seconds): a non-finite reading on a channel the controller
+        Sensor-fault policy (seconds): a non-finite reading on a channel the policy
         reads is replaced by that channel's last good value for at most
         ``floor(fault_hold_s / control_period)`` consecutive control periods (6 at
         16 ms for the default 0.1 s); counted in ``trace.held_readings``. One more
         non-finite reading, or one before any good value of its channel, stops the
         robot and ends the run with ``reason == "sensor_fault"``. 0 disables holding.
-    read_channels
-        The channels the controller reads (see :func:`channels_read`); non-finite
-        values on others reach it unchanged. ``None``: all sensor channels are guarded.
     """
-    dt = _control_period(env)
-    guard = SensorHold(
-        SENSOR_CHANNELS if read_channels is None else read_channels,
-        hold_steps(fault_hold_s, dt),
-    )
+    robot = env if isinstance(env, Robot) else Robot(env)
+    dt = robot.control_period
+    guard = SensorHold(robot.channels, policy.channels, hold_steps(fault_hold_s, dt))
     options = start_options(start, noise, pushes)
+    names = robot.channels
     commanded = False  # whether any command reached env.step in this run
     stopped = False
     try:
-        obs, info = env.reset(seed=seed, options=options)
-        controller.reset()
-        trace = Trace(goal=dict(controller.goal), start=dict(start or {}))
+        reading, true, pose = robot.reset(seed=seed, options=options)
+        policy.reset()
+        trace = Trace(goal=dict(policy.goal), start=dict(start or {}), channels=list(names))
         reason = "step_limit"
         for k in range(max_steps):
-            reading = np.array(obs, dtype=np.float64)
             seen, held = guard(reading)
             trace.t.append(k * dt)
             trace.readings.append(reading)
-            trace.true_readings.append(np.array(info["true_observation"], dtype=np.float64))
+            trace.true_readings.append(true)
+            if pose is not None:
+                trace.pose.append(np.asarray(pose, dtype=np.float64))
             if guard.faulted:
                 # the hold cannot cover it: this step's command is the stop below
                 trace.observation.append(-1)
@@ -217,7 +200,7 @@ def run_controller(
                 reason = "sensor_fault"
                 trace.fault_channels = list(guard.faulted)
                 break
-            out = controller.step(seen)
+            out = policy.step(dict(zip(names, seen.tolist(), strict=True)))
             trace.observation.append(int(out.observation))
             trace.novel.append(bool(out.novel))
             trace.state.append(int(out.state))
@@ -229,80 +212,17 @@ def run_controller(
                 reason = "goal"
                 break
             commanded = True
-            obs, _, _, _, info = env.step(out.command)
+            reading, true, pose = robot.step(out.command)
         # Always command a stop at the end; judge the outcome on the state after it.
         commanded = True
-        _, _, _, _, info = env.step(np.zeros(2))
+        _, true, pose = robot.step(np.zeros(2))
         stopped = True
     finally:
         if commanded and not stopped:
-            _stop(env)
-    final = np.array(info["true_observation"], dtype=np.float64)
-    trace.final_observation = final
+            _stop(robot.env)
+    trace.final_observation = true
+    trace.final_pose = None if pose is None else np.asarray(pose, dtype=np.float64)
     trace.reason = reason
-    values = {name: float(final[j]) for j, name in enumerate(SENSOR_CHANNELS)}
+    values = robot.as_dict(true)
     trace.goal_reached = reason != "sensor_fault" and within_tolerance(values, trace.goal)
     return trace
-
-
-def run_behavior(
-    model: Any,
-    env: Any,
-    *,
-    start: Mapping[str, float] | None = None,
-    goal: Mapping[str, float] | None = None,
-    seed: int | None = None,
-    noise: float | None = None,
-    max_steps: int | None = None,
-    pushes: Sequence[Mapping[str, float]] | None = None,
-    fault_hold_s: float = DEFAULT_FAULT_HOLD_S,
-) -> Trace:
-    """Perform a learned behavior (SBLM or CBLM) in ``env`` from ``start`` to ``goal``.
-
-    Parameters
-    ----------
-    model
-        A fitted SBLM or CBLM.
-    env
-        A ``behavior_hmm.sim`` env (any backend).
-    start
-        ``{"angle": deg, "distance": m}`` for ``env.reset``; ``None`` keeps the env default.
-    goal
-        Goal in physical units (e.g. ``{"angle": 0}``); ``None`` uses the model's default.
-    seed, noise
-        Passed to ``env.reset`` (sensor noise: sigma times each channel's range).
-    max_steps
-        Step limit; default the model's ``max_steps_``.
-    pushes
-        Scheduled pushes ``{"step", "angle", "distance"}`` (see the env's reset options).
-    fault_hold_s
-        Seconds a non-finite reading on a channel the model reads (:func:`channels_read`)
-        is replaced by its last good value (default 0.1 s, 6 control periods); past
-        that the robot stops and the trace's ``reason`` is ``"sensor_fault"`` (see
-        :func:`run_controller`).
-
-    Raises
-    ------
-    UnreachableGoalError
-        Before any motion, when no observation path leads from the start to the goal,
-        or when the goal is one the model was never shown to stop at (a simple
-        behavior's ``check_stoppable``).
-    """
-    stoppable = getattr(model, "check_stoppable", None)
-    if stoppable is not None:
-        stoppable(goal)
-    controller = make_controller(model, goal)
-    limit = int(max_steps if max_steps is not None else model.max_steps_)
-    if limit < 1:
-        raise ConfigError(f"max_steps must be >= 1, got {limit}")
-    return run_controller(
-        controller,
-        env,
-        start=start,
-        seed=seed,
-        noise=noise,
-        max_steps=limit,
-        pushes=pushes,
-        fault_hold_s=fault_hold_s,
-        read_channels=channels_read(model),
-    )

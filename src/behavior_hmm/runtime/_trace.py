@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data import SENSOR_CHANNELS
+from behavior_hmm.data._channels import CHANNELS, SENSOR_CHANNELS
 
 
 @dataclass
@@ -19,9 +19,14 @@ class Trace:
     Attributes
     ----------
     t : (n,) seconds since the start
-    readings : (n, 4) sensor readings as received (physical units, ``SENSOR_CHANNELS``
-        order; a non-finite reading stays as it came, see ``held``)
-    true_readings : (n, 4) noise-free readings from the simulator
+    channels : the sensor channels of ``readings``, in column order (the env's channels,
+        the data contract's first; default ``SENSOR_CHANNELS``)
+    readings : (n, C) sensor readings as received (physical units, ``channels`` order;
+        a non-finite reading stays as it came, see ``held``)
+    true_readings : (n, C) noise-free readings (the readings themselves when the env
+        gives no ``info["true_observation"]``)
+    pose : (n, 3) robot pose ``x`` (m), ``y`` (m), ``yaw`` (rad) at each step, when the
+        env reports ``info["pose"]``; empty otherwise
     observation : (n,) observation category at each step
     novel : (n,) whether the observation was below vigilance
     state : (n,) active motion primitive (SBLM) or component index (CBLM)
@@ -36,9 +41,13 @@ class Trace:
     reason : ``"goal"``, ``"step_limit"`` or ``"sensor_fault"`` (a read channel stayed
         non-finite longer than the hold; the last step then records the stop)
     fault_channels : the channels whose fault ended the run (empty otherwise)
-    final_observation : (4,) noise-free readings after the final stop command
+    final_observation : (C,) noise-free readings after the final stop command
+    final_pose : pose after the final stop command (or None)
     """
 
+    channels: list[str] = field(default_factory=lambda: list(SENSOR_CHANNELS))
+    pose: list[NDArray[np.float64]] = field(default_factory=list)
+    final_pose: NDArray[np.float64] | None = None
     t: list[float] = field(default_factory=list)
     readings: list[NDArray[np.float64]] = field(default_factory=list)
     true_readings: list[NDArray[np.float64]] = field(default_factory=list)
@@ -66,8 +75,27 @@ class Trace:
 
     @property
     def reading_array(self) -> NDArray[np.float64]:
-        """Readings as an (n, 4) array."""
-        return np.asarray(self.readings, dtype=np.float64).reshape(-1, len(SENSOR_CHANNELS))
+        """Readings as an (n, C) array, columns in ``channels`` order."""
+        return np.asarray(self.readings, dtype=np.float64).reshape(-1, len(self.channels))
+
+    @property
+    def pose_array(self) -> NDArray[np.float64]:
+        """Poses as an (n, 3) array (x m, y m, yaw rad); (0, 3) without poses."""
+        return np.asarray(self.pose, dtype=np.float64).reshape(-1, 3)
+
+    def channel(self, name: str, *, true: bool = False) -> NDArray[np.float64]:
+        """One channel's readings (or noise-free readings) as an (n,) array."""
+        if name not in self.channels:
+            raise KeyError(f"the trace has no channel {name!r} (channels: {self.channels})")
+        rows = self.true_readings if true else self.readings
+        data = np.asarray(rows, dtype=np.float64).reshape(-1, len(self.channels))
+        return data[:, self.channels.index(name)]
+
+    def final_value(self, name: str) -> float:
+        """A channel's noise-free value after the final stop."""
+        if self.final_observation is None:
+            raise ValueError("the trace has no final observation")
+        return float(self.final_observation[self.channels.index(name)])
 
     @property
     def n_plan_changes(self) -> int:
@@ -86,23 +114,24 @@ class Trace:
         if final is None:
             return out
         for name, target in self.goal.items():
-            value = float(final[SENSOR_CHANNELS.index(name)])
-            err = value - target
-            if name == "angle":
-                err = (err + 180.0) % 360.0 - 180.0
-            out[name] = float(abs(err))
+            value = float(final[self.channels.index(name)])
+            out[name] = abs(CHANNELS[name].error(value, target))
         return out
 
     def to_columns(self) -> dict[str, Any]:
         """Column arrays (for Parquet or pandas)."""
         readings = self.reading_array
-        true = np.asarray(self.true_readings, dtype=np.float64).reshape(-1, len(SENSOR_CHANNELS))
+        true = np.asarray(self.true_readings, dtype=np.float64).reshape(-1, len(self.channels))
         cmds = self.command_array
         cols: dict[str, Any] = {"t": np.asarray(self.t, dtype=np.float64)}
-        for j, name in enumerate(SENSOR_CHANNELS):
+        for j, name in enumerate(self.channels):
             cols[name] = readings[:, j]
-        for j, name in enumerate(SENSOR_CHANNELS):
+        for j, name in enumerate(self.channels):
             cols[f"true_{name}"] = true[:, j]
+        if len(self.pose) == len(self.t) and self.pose:
+            poses = self.pose_array
+            for j, name in enumerate(("x", "y", "yaw")):
+                cols[name] = poses[:, j]
         cols["left"] = cmds[:, 0]
         cols["right"] = cmds[:, 1]
         cols["observation"] = np.asarray(self.observation, dtype=np.int64)

@@ -16,18 +16,20 @@ Examples
 
 from __future__ import annotations
 
-import gymnasium
-
+from behavior_hmm._envs import register_envs
 from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.sim._env import (
     BACKENDS,
     DEFAULT_START,
     ENV_ID,
     KINEMATIC_ENV_ID,
+    ChannelDict,
     KheperaEnv,
+    make_contract_env,
     make_env,
     wrap_degrees,
 )
+from behavior_hmm.sim._husky import HuskyEnv, make_husky
 from behavior_hmm.sim._mujoco import MODEL_XML
 from behavior_hmm.sim._params import RobotParams
 
@@ -40,22 +42,14 @@ __all__ = [
     "KINEMATIC_ENV_ID",
     "MODEL_XML",
     "SENSOR_CHANNELS",
+    "ChannelDict",
+    "HuskyEnv",
     "KheperaEnv",
     "RobotParams",
+    "make_contract_env",
     "make_env",
+    "make_husky",
     "wrap_degrees",
 ]
 
-
-def _register() -> None:
-    """Register both ids once (re-importing or reloading this module is harmless)."""
-    for env_id, backend in ((ENV_ID, "mujoco"), (KINEMATIC_ENV_ID, "kinematic")):
-        if env_id not in gymnasium.registry:
-            gymnasium.register(
-                id=env_id,
-                entry_point="behavior_hmm.sim._env:KheperaEnv",
-                kwargs={"backend": backend},
-            )
-
-
-_register()
+register_envs()

@@ -11,17 +11,19 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import ARENA_MAX_DISTANCE, SENSOR_CHANNELS, noise_std
+from behavior_hmm._envs import ENV_ID, KINEMATIC_ENV_ID
+from behavior_hmm.data._channels import (
+    ARENA_MAX_DISTANCE,
+    SENSOR_CHANNELS,
+    SENSOR_RANGES,
+    noise_std,
+)
 from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.sim._kinematic import KinematicBackend
 from behavior_hmm.sim._mujoco import MujocoBackend
 from behavior_hmm.sim._params import RobotParams
 from behavior_hmm.sim._render import TopDownRenderer
 
-#: Gymnasium id of the MuJoCo-backed environment.
-ENV_ID: Final[str] = "behavior_hmm/Khepera-v0"
-#: Gymnasium id of the kinematic environment.
-KINEMATIC_ENV_ID: Final[str] = "behavior_hmm/KheperaKinematic-v0"
 #: Backend names accepted by :class:`KheperaEnv`.
 BACKENDS: Final[tuple[str, ...]] = ("mujoco", "kinematic")
 #: Start used when ``reset`` gets no ``angle`` / ``distance`` option.
@@ -120,7 +122,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
         backend: str = "mujoco",
         params: RobotParams | None = None,
         noise: float = 0.0,
-        max_episode_steps: int = 4000,
+        max_episode_steps: int | None = 4000,
         render_mode: str | None = None,
     ) -> None:
         if backend not in BACKENDS:
@@ -129,18 +131,19 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
             params = RobotParams()
         if not isinstance(params, RobotParams):
             raise ConfigError(f"params must be a RobotParams, got {type(params).__name__}")
-        if isinstance(max_episode_steps, bool) or not isinstance(
-            max_episode_steps, int | np.integer
+        if max_episode_steps is not None and (
+            isinstance(max_episode_steps, bool)
+            or not isinstance(max_episode_steps, int | np.integer)
         ):
             raise ConfigError(f"max_episode_steps must be an integer, got {max_episode_steps!r}")
-        if max_episode_steps < 1:
+        if max_episode_steps is not None and max_episode_steps < 1:
             raise ConfigError(f"max_episode_steps must be >= 1, got {max_episode_steps}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"unknown render_mode {render_mode!r}; expected None or 'rgb_array'")
         self.backend = backend
         self.params = params
         self.noise = _check_noise(noise, "noise")
-        self.max_episode_steps = int(max_episode_steps)
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": 1.0 / params.control_period}
 
@@ -204,7 +207,8 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
             for d_angle, d_distance in self._pushes.pop(self._step):
                 self._displace(d_angle, d_distance)
         obs, info = self._observe()
-        return obs, 0.0, False, self._step >= self.max_episode_steps, info
+        limit = self.max_episode_steps
+        return obs, 0.0, False, limit is not None and self._step >= limit, info
 
     def render(self) -> NDArray[np.uint8] | None:
         """Top-down RGB image when ``render_mode == "rgb_array"``, else None."""
@@ -214,6 +218,41 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
             self._renderer = TopDownRenderer(self.params)
         x, y, yaw = self.sim.state()[:3]
         return self._renderer.render(x, y, yaw)
+
+    # ------------------------------------------------------------------ robot contract
+    #: What each entry of the observation array is (docs/robots.md; the registered ids
+    #: give the same channels as a ``spaces.Dict`` through :class:`ChannelDict`).
+    sensor_channels: tuple[str, ...] = SENSOR_CHANNELS
+
+    @property
+    def control_period(self) -> float:
+        """Seconds per step (the robot contract's ``control_period``)."""
+        return float(self.params.control_period)
+
+    @property
+    def robot_spec(self) -> dict[str, float]:
+        """Wheel radius (m), track width (m) and top wheel speed (rad/s): the contract's."""
+        p = self.params
+        return {
+            "wheel_radius": p.wheel_radius,
+            "track_width": p.axle_track,
+            "max_wheel_speed": p.max_wheel_speed,
+        }
+
+    @property
+    def body_radius(self) -> float:
+        """Radius (m) of the round chassis (for plots and videos)."""
+        return float(self.params.body_radius)
+
+    @property
+    def object_radius(self) -> float:
+        """Radius (m) of the object at the origin (for plots and videos)."""
+        return float(self.params.object_radius)
+
+    @property
+    def channel_ranges(self) -> dict[str, tuple[float, float]]:
+        """Normalization range of each channel (the data contract's)."""
+        return dict(SENSOR_RANGES)
 
     # ------------------------------------------------------------------ extras
     def push(self, angle: float = 0.0, distance: float = 0.0) -> Obs:
@@ -397,3 +436,46 @@ def make_env(
             f"or {KINEMATIC_ENV_ID!r}"
         )
     return KheperaEnv(backend=backend, params=params, noise=noise, **kwargs)
+
+
+class ChannelDict(gymnasium.ObservationWrapper[dict[str, Obs], Obs, Obs]):
+    """Our env under the robot contract: observations as a ``spaces.Dict`` by channel.
+
+    Each value is a ``(1,)`` float64 array in the channel's units; ``info
+    ["true_observation"]`` becomes the same dict. The registered ids build this.
+    """
+
+    def __init__(self, env: gymnasium.Env[Obs, Obs]) -> None:
+        super().__init__(env)
+        self.names: tuple[str, ...] = tuple(env.unwrapped.sensor_channels)  # type: ignore[attr-defined]
+        low, high = env.observation_space.low, env.observation_space.high  # type: ignore[attr-defined]
+        self.observation_space = spaces.Dict(  # type: ignore[assignment]
+            {
+                name: spaces.Box(low[j], high[j], shape=(1,), dtype=np.float64)
+                for j, name in enumerate(self.names)
+            }
+        )
+
+    def observation(self, observation: Obs) -> dict[str, Obs]:
+        return {name: observation[j : j + 1].copy() for j, name in enumerate(self.names)}
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Obs], dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self.observation(np.asarray(obs)), self._info(info)
+
+    def step(self, action: Obs) -> tuple[dict[str, Obs], SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self.observation(np.asarray(obs)), reward, terminated, truncated, self._info(info)
+
+    def _info(self, info: dict[str, Any]) -> dict[str, Any]:
+        true = info.get("true_observation")
+        if true is not None:
+            info = {**info, "true_observation": self.observation(np.asarray(true))}
+        return info
+
+
+def make_contract_env(backend: str = "mujoco", **kwargs: Any) -> ChannelDict:
+    """A :class:`KheperaEnv` that meets the robot contract (the registered ids' entry point)."""
+    return ChannelDict(KheperaEnv(backend=backend, **kwargs))

@@ -5,25 +5,25 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from behavior_hmm.data import Dataset
+from behavior_hmm.data import SENSOR_CHANNELS, ChannelSpec, Dataset
 from behavior_hmm.errors import ConfigError
-from behavior_hmm.teach._demonstrator import BEHAVIORS, Teacher, TeacherConfig
-from behavior_hmm.teach._grids import TURN_DISTANCE, Start, check_start, default_starts
+from behavior_hmm.teach._behaviors import Start, behavior_spec
+from behavior_hmm.teach._demonstrator import Teacher, TeacherConfig
+from behavior_hmm.teach._grids import check_start, default_starts
 
 Progress = Callable[[int, int], None]
 
 
-def complete_start(behavior: str, start: Start) -> Start:
-    """Fill a start's missing channel with the behavior's default (turn: 0.5 m, others 0 deg)."""
-    check_start(start)
-    full = dict(start)
-    if "angle" not in full:
-        full["angle"] = 0.0
-    if "distance" not in full:
-        if behavior not in ("turn",):
-            raise ConfigError(f"a start for '{behavior}' needs a distance")
-        full["distance"] = TURN_DISTANCE
-    return full
+def complete_start(behavior: str, start: Start, max_distance: float | None = None) -> Start:
+    """Fill a start's missing channel with the behavior's default (turn: 0.5 m, others 0 deg).
+
+    ``max_distance`` (m): the farthest start allowed; default our arena's 1.2 m.
+    """
+    if max_distance is None:
+        check_start(start)
+    else:
+        check_start(start, max_distance)
+    return behavior_spec(behavior).complete_start(start)
 
 
 def collect(
@@ -36,13 +36,15 @@ def collect(
     teacher: TeacherConfig | None = None,
     progress: Progress | None = None,
     env: Any = None,
+    env_name: str | None = None,
 ) -> Dataset:
     """Demonstrate ``behavior`` from every start and return the dataset.
 
     Parameters
     ----------
     behavior
-        One of ``turn``, ``approach``, ``retreat``, ``turn-approach``, ``position``.
+        A registered behavior (``turn``, ``approach``, ``retreat``, ``turn-approach``,
+        ``position``, or one added with :func:`register_behavior`).
     starts
         Starts as dicts with ``angle`` (deg) and/or ``distance`` (m), optionally
         ``goal_distance``; ``None`` uses the default training grid.
@@ -55,12 +57,15 @@ def collect(
     progress
         Called as ``progress(done, total)`` after each episode.
     env
-        An already-made env to use instead of ``make_env(sim)``.
+        An env that meets the robot contract (docs/robots.md) to use instead of
+        ``make_env(sim)``; its starts may reach beyond our arena.
+    env_name
+        How the env was named (``--env``), recorded in the metadata.
     """
+    from behavior_hmm.runtime import Robot
     from behavior_hmm.sim import make_env
 
-    if behavior not in BEHAVIORS:
-        raise ConfigError(f"unknown behavior '{behavior}'; choose one of {', '.join(BEHAVIORS)}")
+    spec = behavior_spec(behavior)
     if noise < 0:
         raise ConfigError(f"--noise must be >= 0, got {noise}")
     if seed < 0:
@@ -68,10 +73,21 @@ def collect(
     chosen = list(default_starts(behavior) if starts is None else starts)
     if not chosen:
         raise ConfigError("no starts to collect")
-    full = [complete_start(behavior, s) for s in chosen]
-    env = env if env is not None else make_env(sim, noise=noise)
-    config = teacher or TeacherConfig()
-    tutor = Teacher(env, config)
+    own = env is None
+    full = [complete_start(behavior, s, None if own else float("inf")) for s in chosen]
+    env = make_env(sim, noise=noise) if own else env
+    robot = Robot(env)
+    tutor = Teacher(env, teacher)
+    config = tutor.config
+    derived = list(robot.derived)
+    extras = [c for c in robot.channels if c not in SENSOR_CHANNELS]
+    units = dict(getattr(env.unwrapped, "channel_units", None) or {})
+    missing = [c for c in extras if c not in robot.ranges]
+    if missing:
+        raise ConfigError(
+            f"the robot's channel(s) {', '.join(missing)} need a normalization range: "
+            "declare env.unwrapped.channel_ranges (docs/robots.md)"
+        )
     episodes = []
     for i, start in enumerate(full):
         demo = tutor.demonstrate(
@@ -87,13 +103,24 @@ def collect(
         episodes.append(columns)
         if progress is not None:
             progress(i + 1, len(full))
+    params = getattr(env.unwrapped, "params", None)
     metadata = {
         "behavior": behavior,
-        "simulator": sim,
+        "goal": dict(spec.goal),
+        "simulator": sim if env_name is None else env_name,
+        "env": env_name or sim,
+        "control_period": robot.control_period,
+        "ranges": {c: list(r) for c, r in robot.ranges.items()},
         "seed": seed,
         "noise": noise,
-        "robot": env.unwrapped.params.to_dict(),
+        "robot": params.to_dict() if params is not None else robot.spec.to_dict(),
         "teacher": config.to_dict(),
         "starts": full,
     }
+    if extras:
+        metadata["channels"] = [
+            ChannelSpec(c, str(units.get(c, "1")), robot.ranges[c]).to_metadata() for c in extras
+        ]
+    if derived:  # a robot without velocity sensors: estimated from its positions
+        metadata["derived"] = derived
     return Dataset.from_episodes(episodes, metadata=metadata)

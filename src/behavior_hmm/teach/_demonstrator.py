@@ -11,29 +11,27 @@ supervisor); the recorded sensor readings carry whatever noise the env adds.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
 
-from behavior_hmm.data import (
-    ANGLE_TOLERANCE_DEG,
-    CONTROL_PERIOD,
-    DISTANCE_TOLERANCE_M,
-    SENSOR_CHANNELS,
-)
+from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M
 from behavior_hmm.errors import ConfigError, SimulationError
+from behavior_hmm.runtime import Robot, RobotSpec
+from behavior_hmm.teach._behaviors import BEHAVIORS, PHASE_KINDS, Phase, behavior_spec
 from behavior_hmm.teach._profiles import DISTANCE_LIMITS, TURN_LIMITS, Limits, SCurve
 
-_DIST: Final = SENSOR_CHANNELS.index("distance")
-_ANGLE: Final = SENSOR_CHANNELS.index("angle")
-
-#: Behaviors the teacher can demonstrate (the names used on the command line).
-BEHAVIORS: Final[tuple[str, ...]] = ("turn", "approach", "retreat", "turn-approach", "position")
+__all__ = ["BEHAVIORS", "PHASES", "Phase"]
 
 #: The sub-behavior each phase kind is tagged with in the ``behavior`` column.
-PHASES: Final[tuple[str, ...]] = ("turn", "approach", "retreat")
+PHASES: Final[tuple[str, ...]] = PHASE_KINDS
+
+#: The robot the default profile limits were chosen for (our Khepera-like robot): top
+#: speed 0.21 m/s, yaw rate 454 deg/s. Other robots get limits scaled to their own.
+_REFERENCE_SPEED: Final[float] = 0.021 * 10.0
 
 
 def wrap_deg(angle: float) -> float:
@@ -85,6 +83,25 @@ class TeacherConfig:
         if self.stop_steps < 0:
             raise ConfigError("stop_steps must be >= 0")
 
+    def scaled_to(self, spec: RobotSpec) -> TeacherConfig:
+        """These settings with profile limits scaled to a robot's top speed and yaw rate.
+
+        Distance profiles scale with the robot's top speed relative to our Khepera-like
+        robot's 0.21 m/s (unchanged for it); a turn profile never asks for more than a
+        third of the robot's top yaw rate.
+        """
+        factor = spec.max_linear_speed / _REFERENCE_SPEED
+        if abs(factor - 1.0) < 1e-9 and self.turn_limits.velocity <= spec.max_yaw_rate / 3:
+            return self
+        d = self.distance_limits
+        t = self.turn_limits
+        turn = min(1.0, spec.max_yaw_rate / 3.0 / t.velocity)
+        return dataclasses.replace(
+            self,
+            distance_limits=Limits(d.velocity * factor, d.acceleration * factor, d.jerk * factor),
+            turn_limits=Limits(t.velocity * turn, t.acceleration * turn, t.jerk * turn),
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe description, stored in dataset metadata."""
         out: dict[str, Any] = {}
@@ -93,18 +110,11 @@ class TeacherConfig:
         return out
 
 
-@dataclass(frozen=True)
-class Phase:
-    """One sub-behavior of a demonstration: its name and goal (deg for turn, m otherwise)."""
-
-    name: str
-    target: float
-
-
 @dataclass
 class Demonstration:
     """Rows recorded during one demonstration (one future dataset episode)."""
 
+    channels: tuple[str, ...] = ()
     t: list[float] = field(default_factory=list)
     sensors: list[np.ndarray] = field(default_factory=list)
     commands: list[tuple[float, float]] = field(default_factory=list)
@@ -113,10 +123,10 @@ class Demonstration:
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         """Columns of the demonstration keyed by the data-contract names."""
-        sensors = np.asarray(self.sensors, dtype=np.float64).reshape(-1, len(SENSOR_CHANNELS))
+        sensors = np.asarray(self.sensors, dtype=np.float64).reshape(-1, len(self.channels))
         commands = np.asarray(self.commands, dtype=np.float64).reshape(-1, 2)
         columns: dict[str, np.ndarray] = {"t": np.asarray(self.t, dtype=np.float64)}
-        for i, name in enumerate(SENSOR_CHANNELS):
+        for i, name in enumerate(self.channels):
             columns[name] = sensors[:, i]
         columns["left"] = commands[:, 0]
         columns["right"] = commands[:, 1]
@@ -125,45 +135,15 @@ class Demonstration:
 
 
 def plan_phases(
-    behavior: str,
-    angle: float,
-    distance: float,
-    goal_distance: float | None = None,
-    retreat_distance: float = 1.0,
+    behavior: str, angle: float, distance: float, goal_distance: float | None = None
 ) -> list[Phase]:
-    """The phases the teacher runs for ``behavior`` from a start (deg, m).
+    """The phases the teacher runs for ``behavior`` from a start (deg, m): its spec's.
 
     ``turn-approach`` turns only if the bearing is outside the angle tolerance and
     approaches only if the distance is outside the distance tolerance; ``position``
     turns if needed, then approaches or retreats to ``goal_distance``.
     """
-    turn_needed = abs(angle) > ANGLE_TOLERANCE_DEG
-    if behavior == "turn":
-        return [Phase("turn", 0.0)]
-    if behavior == "approach":
-        return [Phase("approach", 0.0)]
-    if behavior == "retreat":
-        target = retreat_distance if goal_distance is None else goal_distance
-        if target <= distance:
-            raise ConfigError(
-                f"retreat needs a goal distance beyond the start ({target} m <= {distance} m)"
-            )
-        return [Phase("retreat", target)]
-    if behavior == "turn-approach":
-        phases = [Phase("turn", 0.0)] if turn_needed else []
-        if distance > DISTANCE_TOLERANCE_M:
-            phases.append(Phase("approach", 0.0))
-        return phases
-    if behavior == "position":
-        if goal_distance is None:
-            raise ConfigError("position needs a goal distance (a goal_distance column)")
-        phases = [Phase("turn", 0.0)] if turn_needed else []
-        if distance > goal_distance + DISTANCE_TOLERANCE_M:
-            phases.append(Phase("approach", goal_distance))
-        elif distance < goal_distance - DISTANCE_TOLERANCE_M:
-            phases.append(Phase("retreat", goal_distance))
-        return phases
-    raise ConfigError(f"unknown behavior '{behavior}'; choose one of {', '.join(BEHAVIORS)}")
+    return behavior_spec(behavior).phases(float(angle), float(distance), goal_distance)
 
 
 class Teacher:
@@ -172,18 +152,24 @@ class Teacher:
     Parameters
     ----------
     env
-        A ``behavior_hmm.sim.KheperaEnv`` (either backend).
+        Any env that meets the robot contract (docs/robots.md): the teacher plans from
+        its ``robot_spec`` and tracks on its noise-free observation.
     config
-        Gains, limits and tolerances.
+        Gains, limits and tolerances; default :class:`TeacherConfig` scaled to the
+        robot (:meth:`TeacherConfig.scaled_to`).
     """
 
     def __init__(self, env: Any, config: TeacherConfig | None = None) -> None:
         self.env = env
-        self.config = config or TeacherConfig()
-        robot = env.unwrapped.params
-        self._half_track_over_r = robot.axle_track / (2.0 * robot.wheel_radius)
-        self._inv_r = 1.0 / robot.wheel_radius
-        self._max_wheel = robot.max_wheel_speed
+        self.robot = Robot(env)
+        spec = self.robot.spec
+        self.config = config or TeacherConfig().scaled_to(spec)
+        self._half_track_over_r = spec.track_width / (2.0 * spec.wheel_radius)
+        self._inv_r = 1.0 / spec.wheel_radius
+        self._max_wheel = spec.max_wheel_speed
+        self._dt = self.robot.control_period
+        self._dist = self.robot.channels.index("distance")
+        self._angle = self.robot.channels.index("angle")
 
     def demonstrate(
         self,
@@ -196,82 +182,82 @@ class Teacher:
         noise: float | None = None,
     ) -> Demonstration:
         """Run one demonstration from a start (deg, m); raises if the goal is not reached."""
-        phases = plan_phases(behavior, angle, distance, goal_distance)
+        spec = behavior_spec(behavior)
+        phases = spec.phases(float(angle), float(distance), goal_distance)
         options: dict[str, Any] = {"angle": float(angle), "distance": float(distance)}
-        if noise is not None:
+        if noise:
             options["noise"] = float(noise)
-        obs, info = self.env.reset(seed=seed, options=options)
-        demo = Demonstration()
+        obs, true, _ = self.robot.reset(seed=seed, options=options)
+        demo = Demonstration(channels=self.robot.channels)
         step = 0
         done: list[Phase] = []
         pending = phases
         while pending:
             phase = pending[0]
-            obs, info, step = self._run_phase(phase, obs, info, step, demo)
+            obs, true, step = self._run_phase(phase, obs, true, step, demo)
             done.append(phase)
             # Re-plan from where the robot really is: e.g. turning while touching the
             # object can push it off, so an approach becomes necessary after all.
-            if behavior not in ("turn-approach", "position"):
+            if not spec.replan:
                 break
-            true = info["true_observation"]
             names = {p.name for p in done}
             pending = [
                 p
-                for p in plan_phases(behavior, true[_ANGLE], true[_DIST], goal_distance)
+                for p in spec.phases(true[self._angle], true[self._dist], goal_distance)
                 if p.name not in names
             ]
         phases = done
-        last = phases[-1].name if phases else _default_tag(behavior)
+        last = phases[-1].name if phases else (spec.components or (spec.name,))[0]
         for _ in range(self.config.stop_steps):
-            demo.t.append(step * CONTROL_PERIOD)
-            demo.sensors.append(np.array(obs, dtype=np.float64))
+            demo.t.append(step * self._dt)
+            demo.sensors.append(obs)
             demo.commands.append((0.0, 0.0))
             demo.behavior.append(last)
-            obs, _, _, _, info = self.env.step(np.zeros(2))
+            obs, true, _ = self.robot.step(np.zeros(2))
             step += 1
-        demo.final_observation = np.array(info["true_observation"], dtype=np.float64)
+        demo.final_observation = true
         self._check_goal(behavior, phases, demo.final_observation, angle, distance)
         return demo
 
     # -- internals -------------------------------------------------------------------------
 
     def _run_phase(
-        self, phase: Phase, obs: np.ndarray, info: dict[str, Any], step: int, demo: Demonstration
-    ) -> tuple[np.ndarray, dict[str, Any], int]:
+        self, phase: Phase, obs: np.ndarray, true: np.ndarray, step: int, demo: Demonstration
+    ) -> tuple[np.ndarray, np.ndarray, int]:
         cfg = self.config
-        true = info["true_observation"]
         if phase.name == "turn":
-            profile = SCurve(wrap_deg(true[_ANGLE]), phase.target, cfg.turn_limits)
+            # the bearing moves within (-180, 180] without wrapping: a turn never swings
+            # the object behind the robot, so the readings stay continuous
+            profile = SCurve(wrap_deg(true[self._angle]), phase.target, cfg.turn_limits)
         else:
             # An approach to the object itself stops just short of contact.
             touch = phase.name == "approach" and phase.target == 0.0
             target = cfg.approach_target if touch else phase.target
-            profile = SCurve(true[_DIST], target, cfg.distance_limits)
+            profile = SCurve(true[self._dist], target, cfg.distance_limits)
         limit = profile.duration + cfg.max_extra_time
         k = 0
         while True:
-            t_phase = k * CONTROL_PERIOD
-            true = info["true_observation"]
+            t_phase = k * self._dt
             if t_phase >= profile.duration and self._settled(phase, profile.target, true):
-                return obs, info, step
+                return obs, true, step
             if t_phase > limit:
                 raise SimulationError(
                     f"teacher could not finish '{phase.name}' within {limit:.1f} s "
-                    f"(angle {true[_ANGLE]:.2f} deg, distance {true[_DIST]:.4f} m)"
+                    f"(angle {true[self._angle]:.2f} deg, distance {true[self._dist]:.4f} m)"
                 )
             left, right = self._command(phase, profile, t_phase, true)
-            demo.t.append(step * CONTROL_PERIOD)
-            demo.sensors.append(np.array(obs, dtype=np.float64))
+            demo.t.append(step * self._dt)
+            demo.sensors.append(obs)
             demo.commands.append((left, right))
             demo.behavior.append(phase.name)
-            obs, _, _, _, info = self.env.step(np.array([left, right]))
+            obs, true, _ = self.robot.step(np.array([left, right]))
             step += 1
             k += 1
 
     def _settled(self, phase: Phase, target: float, true: np.ndarray) -> bool:
         if phase.name == "turn":
-            return abs(wrap_deg(true[_ANGLE] - target)) <= self.config.settle_angle
-        return abs(true[_DIST] - target) <= self.config.settle_distance
+            return abs(wrap_deg(true[self._angle] - target)) <= self.config.settle_angle
+        return abs(true[self._dist] - target) <= self.config.settle_distance
 
     def _command(
         self, phase: Phase, profile: SCurve, t: float, true: np.ndarray
@@ -280,13 +266,13 @@ class Teacher:
         position, velocity = profile.at(t)
         if phase.name == "turn":
             # The bearing falls as the robot yaws counter-clockwise: d(angle)/dt = -yaw rate.
-            error = wrap_deg(true[_ANGLE] - position)
+            error = wrap_deg(true[self._angle] - position)
             yaw_deg = -velocity + cfg.angle_gain * error
             forward = 0.0
         else:
             # The distance falls as the robot drives forward: d(distance)/dt = -forward speed.
-            forward = -velocity + cfg.distance_gain * (true[_DIST] - position)
-            yaw_deg = cfg.heading_gain * wrap_deg(true[_ANGLE])
+            forward = -velocity + cfg.distance_gain * (true[self._dist] - position)
+            yaw_deg = cfg.heading_gain * wrap_deg(true[self._angle])
         yaw = math.radians(yaw_deg)
         right = forward * self._inv_r + yaw * self._half_track_over_r
         left = forward * self._inv_r - yaw * self._half_track_over_r
@@ -302,20 +288,16 @@ class Teacher:
         distance: float,
     ) -> None:
         start = f"start angle {angle:g} deg, distance {distance:g} m"
+        angle_now, distance_now = final[self._angle], final[self._dist]
         for phase in phases:
-            if phase.name == "turn" and abs(wrap_deg(final[_ANGLE])) > ANGLE_TOLERANCE_DEG:
+            goal = phase.target
+            if phase.name == "turn" and abs(wrap_deg(angle_now - goal)) > ANGLE_TOLERANCE_DEG:
                 raise SimulationError(
                     f"teacher missed the {behavior} goal from {start}: "
-                    f"final angle {final[_ANGLE]:.2f} deg"
+                    f"final angle {angle_now:.2f} deg, goal {goal:g} deg"
                 )
-            if phase.name != "turn":
-                goal = phase.target
-                if abs(final[_DIST] - goal) > DISTANCE_TOLERANCE_M:
-                    raise SimulationError(
-                        f"teacher missed the {behavior} goal from {start}: "
-                        f"final distance {final[_DIST]:.4f} m, goal {goal:g} m"
-                    )
-
-
-def _default_tag(behavior: str) -> str:
-    return "turn" if behavior in ("turn", "turn-approach", "position") else behavior
+            if phase.name != "turn" and abs(distance_now - goal) > DISTANCE_TOLERANCE_M:
+                raise SimulationError(
+                    f"teacher missed the {behavior} goal from {start}: "
+                    f"final distance {distance_now:.4f} m, goal {goal:g} m"
+                )

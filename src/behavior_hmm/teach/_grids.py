@@ -6,56 +6,17 @@ import csv
 import difflib
 from importlib import resources
 from pathlib import Path
-from typing import Final
 
 import numpy as np
 
 from behavior_hmm.data import ARENA_MAX_DISTANCE
 from behavior_hmm.errors import ConfigError
-
-#: Distance (m) at which turn demonstrations are recorded.
-TURN_DISTANCE: Final[float] = 0.5
-#: Distance (m) retreat demonstrations back away to.
-RETREAT_DISTANCE: Final[float] = 1.0
-
-Start = dict[str, float]
+from behavior_hmm.teach._behaviors import Start, behavior_spec
 
 
 def default_starts(behavior: str) -> list[Start]:
-    """The training grid of DESIGN §6 for ``behavior``.
-
-    turn: -180..180 deg every 10 deg (0 excluded) at 0.5 m; approach: 0.10..1.00 m
-    every 0.05 m at 0 deg; turn-approach: every 20 deg x every 0.1 m plus the angle-0
-    and distance-0 edges; retreat: 0.00..0.90 m every 0.05 m back to 1.0 m;
-    position: every 40 deg (and 0) x start distances 0..1 m every 0.2 m x goal distances
-    0, 0.25, 0.5, 0.75 and 1 m (so every goal in [0, 1] m is passed on the way).
-    """
-    if behavior == "turn":
-        return [{"angle": float(a), "distance": TURN_DISTANCE} for a in range(-180, 181, 10) if a]
-    if behavior == "approach":
-        return [{"angle": 0.0, "distance": d} for d in _grid(0.10, 1.00, 0.05)]
-    if behavior == "retreat":
-        return [
-            {"angle": 0.0, "distance": d, "goal_distance": RETREAT_DISTANCE}
-            for d in _grid(0.0, 0.90, 0.05)
-        ]
-    if behavior == "turn-approach":
-        angles = [float(a) for a in range(-180, 181, 20) if a]
-        distances = _grid(0.1, 1.0, 0.1)
-        starts = [{"angle": a, "distance": d} for a in angles for d in distances]
-        starts += [{"angle": 0.0, "distance": d} for d in distances]
-        starts += [{"angle": a, "distance": 0.0} for a in angles]
-        return starts
-    if behavior == "position":
-        angles = [float(a) for a in range(-180, 181, 40) if a] + [0.0]
-        starts = []
-        for goal in (0.0, 0.25, 0.5, 0.75, 1.0):
-            for d in _grid(0.0, 1.0, 0.2):
-                if abs(d - goal) < 0.05:
-                    continue
-                starts += [{"angle": a, "distance": d, "goal_distance": goal} for a in angles]
-        return starts
-    raise ConfigError(f"no default grid for behavior '{behavior}'")
+    """The default training grid of ``behavior`` (its spec's ``train_starts``, DESIGN §6)."""
+    return [dict(s) for s in behavior_spec(behavior).train_starts()]
 
 
 def test_starts(behavior: str) -> list[Start]:
@@ -63,16 +24,23 @@ def test_starts(behavior: str) -> list[Start]:
 
     15 per behavior; ``position`` has 30: 15 that need an approach, 15 a retreat.
     """
-    name = f"{behavior.replace('-', '_')}_test.csv"
-    ref = resources.files("behavior_hmm.teach").joinpath("starts", name)
+    shipped = behavior_spec(behavior).test_starts
+    if callable(shipped):
+        return [dict(s) for s in shipped()]
+    if shipped is None:
+        raise ConfigError(f"no test starts shipped for behavior '{behavior}'")
+    ref = resources.files("behavior_hmm.teach").joinpath("starts", shipped)
     if not ref.is_file():
         raise ConfigError(f"no test starts shipped for behavior '{behavior}'")
     with resources.as_file(ref) as path:
         return read_starts(path)
 
 
-def read_starts(path: str | Path) -> list[Start]:
+def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> list[Start]:
     """Read a starts CSV with columns ``angle`` and/or ``distance`` (and ``goal_<channel>``).
+
+    ``max_distance`` (m): the farthest start allowed (our arena's by default; another
+    robot's, ``--env``, may be larger).
 
     Raises
     ------
@@ -130,7 +98,7 @@ def read_starts(path: str | Path) -> list[Start]:
                         )
                     start[key.strip()] = value
                 try:
-                    check_start(start)
+                    check_start(start, max_distance)
                 except ConfigError as err:
                     raise DatasetError(str(err), file=file, row=line) from None
                 starts.append(start)
@@ -145,13 +113,15 @@ def read_starts(path: str | Path) -> list[Start]:
     return starts
 
 
-def check_start(start: Start) -> None:
-    """Raise ConfigError if a start (or its goal) lies outside the arena."""
+def check_start(start: Start, max_distance: float = ARENA_MAX_DISTANCE) -> None:
+    """Raise ConfigError if a start (or its goal) lies outside the arena.
+
+    ``max_distance`` (m) is our arena's by default; a robot of another size passes its own.
+    """
     for key in ("distance", "goal_distance"):
-        if key in start and not 0.0 <= start[key] <= ARENA_MAX_DISTANCE:
+        if key in start and not 0.0 <= start[key] <= max_distance:
             raise ConfigError(
-                f"start outside the arena: {key} {start[key]:g} m "
-                f"not in [0, {ARENA_MAX_DISTANCE:g}]"
+                f"start outside the arena: {key} {start[key]:g} m not in [0, {max_distance:g}]"
             )
     for key in ("angle", "goal_angle"):
         if key in start and not -180.0 <= start[key] <= 180.0:
@@ -160,6 +130,27 @@ def check_start(start: Start) -> None:
             )
 
 
-def _grid(lo: float, hi: float, step: float) -> list[float]:
-    n = round((hi - lo) / step)
-    return [round(lo + i * step, 6) for i in range(n + 1)]
+def scaled_starts(starts: list[Start], env: object) -> list[Start]:
+    """Starts scaled to a robot: ``start * env.unwrapped.start_scale + start_offset``.
+
+    Our test starts are for a 7 cm robot in a 1.2 m arena; a robot of another size
+    declares how to scale them (``start_scale``, e.g. ``{"distance": 5}``) and, if it
+    cannot start touching the object at every bearing (its corners reach past its
+    front), how far to keep off it (``start_offset``, e.g. ``{"distance": 0.1}``; starts
+    only, not goals). See docs/robots.md. Without either they stay as they are.
+    """
+    base = getattr(env, "unwrapped", env)
+    scale = getattr(base, "start_scale", None) or {}
+    offset = getattr(base, "start_offset", None) or {}
+    out = []
+    for start in starts:
+        row = dict(start)
+        for key, factor in scale.items():
+            for name in (key, f"goal_{key}"):
+                if name in row:
+                    row[name] = round(row[name] * float(factor), 6)
+        for key, shift in offset.items():
+            if key in row:
+                row[key] = round(row[key] + float(shift), 6)
+        out.append(row)
+    return out

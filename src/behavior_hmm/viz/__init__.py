@@ -14,6 +14,7 @@ from behavior_hmm.viz._reports import (
     complex_table,
     simple_table,
     write_complex_report,
+    write_robot_report,
     write_simple_report,
 )
 from behavior_hmm.viz._traces import (
@@ -21,11 +22,14 @@ from behavior_hmm.viz._traces import (
     plot_generated_vs_demonstrated,
     plot_trace,
 )
+from behavior_hmm.viz._trajectory import plot_trajectories, plot_trajectory
+from behavior_hmm.viz._video import frame_grid, render_rollout, render_trace
 
 __all__ = [
     "DEFAULT_PLOT_CHANNELS",
     "complex_table",
     "draw_start_panel",
+    "frame_grid",
     "plot_complex_grid",
     "plot_complex_run",
     "plot_demonstrations",
@@ -35,9 +39,14 @@ __all__ = [
     "plot_start_grid",
     "plot_thesis_starts",
     "plot_trace",
+    "plot_trajectories",
+    "plot_trajectory",
+    "render_rollout",
+    "render_trace",
     "simple_panels",
     "simple_table",
     "write_complex_report",
     "write_evaluation_report",
+    "write_robot_report",
     "write_simple_report",
 ]

@@ -7,6 +7,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from behavior_hmm._atomic import atomic_write_bytes
 from behavior_hmm.viz._grids import (
     plot_complex_grid,
@@ -14,7 +16,7 @@ from behavior_hmm.viz._grids import (
     plot_thesis_starts,
     simple_panels,
 )
-from behavior_hmm.viz._traces import plot_complex_run
+from behavior_hmm.viz._traces import _save, plot_complex_run
 
 #: Thesis figure of each behavior's generated-vs-demonstrated plot from fixed starts.
 _THESIS_FIGURE = {"turn": "6.8", "approach": "6.9"}
@@ -179,3 +181,40 @@ def complex_table(results: dict[str, Any]) -> str:
         f"{results['turn_approach_observations']} observation categories."
     )
     return "\n".join(lines) + "\n"
+
+
+def write_robot_report(
+    results: dict[str, Any], out_dir: str | os.PathLike[str], object_radius: float | None = None
+) -> str:
+    """Write ``results.json``, ``trajectories.png`` and ``table.md`` of ``experiment robot``.
+
+    The figure has one panel per task: every test run's path seen from above (the robot's
+    outline every 2 s; green: goal reached), with the teacher's path from the same start
+    dashed. Returns the markdown table. ``results["evaluations"]`` may carry each task's
+    traces under ``"_traces"``; they are drawn, not saved.
+    """
+    from matplotlib.figure import Figure
+
+    from behavior_hmm.evaluate._robot_experiment import robot_table
+    from behavior_hmm.viz._trajectory import plot_trajectories
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = results["rows"]
+    fig = Figure(figsize=(5.2 * len(rows), 5.4), layout="constrained")
+    axes = fig.subplots(1, len(rows))
+    for ax, row, evaluation in zip(np.atleast_1d(axes), rows, results["evaluations"], strict=True):
+        traces = evaluation.pop("_traces", {}).get("model", [])
+        runs = [
+            (trace, case["goal_reached"])
+            for (trace, _), case in zip(traces, evaluation["cases"], strict=True)
+        ]
+        plot_trajectories(runs, ax, object_radius=object_radius)
+        ax.set_title(
+            f"{row['task']}: {row['success_rate']:.1f} %, {row['goal_reached']}/{row['n']} goals"
+        )
+    fig.suptitle(f"{results['env']}: the test starts seen from above (object in red)")
+    _save(fig, out / "trajectories.png")
+    table = robot_table(results)
+    write_results_files(out, results, table)
+    return table

@@ -25,15 +25,22 @@ def _save(fig: Figure, path: str | os.PathLike[str], dpi: int = 120) -> Path:
 def run_series(trace: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Times (n,), readings (n, 4) and commands (n, 2) of a run, all of one length.
 
-    A run refused before any motion (an unreachable goal) records one step and no
-    reading: its reading is then the final observation (where it stood), or NaN.
+    Readings are in ``SENSOR_CHANNELS`` order whatever the robot's channel order (NaN
+    for a channel the robot does not have). A run refused before any motion (an
+    unreachable goal) records one step and no reading: its reading is then the final
+    observation (where it stood), or NaN.
     """
     t = np.asarray(trace.t, dtype=np.float64)
-    readings = trace.reading_array
-    if len(readings) != len(t):
+    names = list(getattr(trace, "channels", SENSOR_CHANNELS))
+    raw = trace.reading_array
+    if len(raw) != len(t):
         final = getattr(trace, "final_observation", None)
-        row = np.full(len(SENSOR_CHANNELS), np.nan) if final is None else np.asarray(final)
-        readings = np.tile(row, (len(t), 1))
+        row = np.full(len(names), np.nan) if final is None else np.asarray(final)
+        raw = np.tile(row, (len(t), 1))
+    readings = np.full((len(t), len(SENSOR_CHANNELS)), np.nan)
+    for j, name in enumerate(SENSOR_CHANNELS):
+        if name in names:
+            readings[:, j] = raw[:, names.index(name)]
     commands = trace.command_array
     if len(commands) != len(t):
         commands = np.zeros((len(t), 2))

@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 
 from behavior_hmm.data import CONTROL_PERIOD, SENSOR_CHANNELS
-from behavior_hmm.runtime import make_controller
 
 
 def sensor_reading(
@@ -133,7 +132,7 @@ class WebotsBehavior:
         self.every = round(every)
         self.max_wheel_speed = float(max_wheel_speed)
         self.wheel_scale = float(wheel_scale)
-        self.controller = make_controller(model, goal)
+        self.controller = model.policy(goal)
         self.reset()
 
     def reset(self) -> None:
@@ -151,7 +150,7 @@ class WebotsBehavior:
             if not np.isfinite(values).all():
                 self._held = WheelCommand(0.0, 0.0, True, "sensor_fault")
             else:
-                out = self.controller.step(values)
+                out = self.controller.step(dict(zip(SENSOR_CHANNELS, values.tolist(), strict=True)))
                 if out.done:
                     self._held = WheelCommand(0.0, 0.0, True, "goal")
                 else:

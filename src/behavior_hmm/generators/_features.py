@@ -1,0 +1,195 @@
+"""What a motion generator reads: one feature layout for training and for the policy.
+
+A row is, in this order: the sensor windows (``window`` filtered, normalized readings
+of each input channel, channel-major, as :func:`make_windows`), the goal (behavior
+cloning's goal-conditioned network), the efference copy (the last ``history``
+normalized commands), the command's last change (a generator that outputs changes)
+and the onset clock (``min(t, clock) / clock``, t = control cycles since the start).
+:meth:`FeatureLayout.offline` builds the rows of whole demonstrations for training;
+:meth:`FeatureLayout.online` gives the per-cycle stepper a policy uses, which builds
+the same numbers one reading at a time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from behavior_hmm.generators._windows import make_windows
+
+FloatArray = NDArray[np.float64]
+Lengths = Sequence[int] | NDArray[np.integer[Any]]
+
+#: A generator that outputs changes keeps its command within this (normalized) bound.
+DELTA_COMMAND_BOUND = 1.5
+
+
+def command_features(commands: FloatArray, lengths: Lengths, history: int) -> FloatArray:
+    """Previous ``history`` normalized commands per row (zeros before an episode starts).
+
+    Row ``t`` holds ``[u[t-history], ..., u[t-1]]`` flattened (left, right per step),
+    the efference copy a motion generator reads beside its sensor window.
+    """
+    n = commands.shape[0]
+    out = np.zeros((n, 2 * history), dtype=np.float64)
+    start = 0
+    for length in lengths:
+        stop = start + int(length)
+        for lag in range(1, history + 1):
+            col = 2 * (history - lag)
+            if length > lag:
+                out[start + lag : stop, col : col + 2] = commands[start : stop - lag]
+        start = stop
+    return out
+
+
+def onset_features(lengths: Lengths, clock: int) -> FloatArray:
+    """The onset clock per row: ``min(t, clock) / clock``, t = control cycles since the start."""
+    steps = np.concatenate([np.arange(int(n)) for n in lengths])
+    return (np.minimum(steps, clock) / clock)[:, None]
+
+
+def shifted_windows(
+    features: FloatArray, n_channels: int, window: int, sigma: float, rng: np.random.Generator
+) -> FloatArray:
+    """A copy of ``features`` whose sensor windows are offset by one Gaussian draw per channel.
+
+    The windows are the first ``n_channels * window`` columns, channel-major (as
+    :func:`~behavior_hmm.generators.make_windows` lays them out).
+    """
+    noisy = features.copy()
+    offsets = rng.normal(0.0, sigma, size=(features.shape[0], n_channels))
+    noisy[:, : n_channels * window] += np.repeat(offsets, window, axis=1)
+    return noisy
+
+
+@dataclass(frozen=True)
+class FeatureLayout:
+    """The columns of a generator's input row.
+
+    Parameters
+    ----------
+    n_channels, window
+        Input channels and readings per channel in the sensor windows.
+    goal
+        Goal values in the row (0 for an SBLM's generators; behavior cloning's goal).
+    history
+        Previous commands in the efference copy (0: none).
+    delta
+        Whether the generator outputs command changes (then the row also holds the
+        command's last change, in units of ``delta_scale``; needs ``history >= 1``).
+    clock
+        Onset clock length in control cycles (0: no clock).
+    delta_scale
+        Normalized command change a generator output of 1 stands for.
+    """
+
+    n_channels: int
+    window: int
+    goal: int = 0
+    history: int = 0
+    delta: bool = False
+    clock: int = 0
+    delta_scale: float = 1.0
+
+    @property
+    def width(self) -> int:
+        """Columns of a row."""
+        delta = 2 if self.delta and self.history > 0 else 0
+        clock = 1 if self.clock > 0 else 0
+        return self.n_channels * self.window + self.goal + 2 * self.history + delta + clock
+
+    def offline(
+        self, x: FloatArray, y: FloatArray, lengths: Lengths, goals: FloatArray | None = None
+    ) -> FloatArray:
+        """Rows of whole demonstrations: ``x`` (n, channels) normalized readings, ``y``
+        (n, 2) normalized commands, ``goals`` (n, goal) per row (when ``goal > 0``)."""
+        parts = [make_windows(x, lengths, self.window)]
+        if self.goal:
+            if goals is None or goals.shape != (x.shape[0], self.goal):
+                raise ValueError(f"goals must have shape ({x.shape[0]}, {self.goal})")
+            parts.append(goals)
+        if self.history > 0:
+            parts.append(command_features(y, lengths, self.history))
+            if self.delta:
+                # previous command and its last change (in units of delta_scale)
+                prev2 = command_features(y, lengths, 2)
+                parts.append(np.clip((prev2[:, 2:] - prev2[:, :2]) / self.delta_scale, -1, 1))
+        if self.clock > 0:
+            parts.append(onset_features(lengths, self.clock))
+        return np.hstack(parts) if len(parts) > 1 else parts[0]
+
+    def online(self) -> OnlineFeatures:
+        """A fresh stepper building the same rows one reading at a time."""
+        return OnlineFeatures(self)
+
+
+class OnlineFeatures:
+    """Per-cycle rows of a :class:`FeatureLayout`, as the policy runs.
+
+    Each cycle: :meth:`push` the filtered, normalized reading; when a command is needed,
+    :meth:`row` gives the generator's input (advancing the onset clock), and
+    :meth:`commit` turns the generator's output into the command and records it in the
+    efference copy.
+    """
+
+    def __init__(self, layout: FeatureLayout) -> None:
+        self.layout = layout
+        self._n = layout.n_channels * layout.window
+        self._buf = np.zeros((layout.n_channels, layout.window))
+        self._row = np.zeros(layout.width)
+        self._h = self._n + layout.goal + 2 * layout.history  # end of the efference copy
+        self._delta = bool(layout.delta and layout.history > 0)
+        self._scale = float(layout.delta_scale)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the run (windows, efference copy, clock); the goal stays."""
+        goal = self._row[self._n : self._n + self.layout.goal].copy()
+        self._row[:] = 0.0
+        self._row[self._n : self._n + self.layout.goal] = goal
+        self._started = False
+        self._k = 0
+
+    def set_goal(self, goal: FloatArray) -> None:
+        """The goal values (normalized) written into every row."""
+        self._row[self._n : self._n + self.layout.goal] = goal
+
+    def push(self, x: FloatArray) -> None:
+        """Add one filtered, normalized reading (the first one fills the whole window)."""
+        if not self._started:
+            self._buf[:] = x[:, None]
+            self._started = True
+        else:
+            self._buf[:, :-1] = self._buf[:, 1:]
+            self._buf[:, -1] = x
+
+    def row(self) -> FloatArray:
+        """The generator's input for this cycle (a view: read it before :meth:`commit`)."""
+        row = self._row
+        row[: self._n] = self._buf.ravel()
+        clock = self.layout.clock
+        if clock:
+            row[-1] = min(self._k, clock) / clock
+        self._k += 1
+        return row
+
+    def commit(self, out: FloatArray) -> FloatArray:
+        """The normalized command for generator output ``out``; recorded as sent."""
+        row, h = self._row, self._h
+        if self._delta:
+            y = np.clip(
+                row[h - 2 : h] + self._scale * out, -DELTA_COMMAND_BOUND, DELTA_COMMAND_BOUND
+            )
+            row[h : h + 2] = np.clip((y - row[h - 2 : h]) / self._scale, -1.0, 1.0)
+        else:
+            y = out
+        if self.layout.history:
+            hist = row[self._n + self.layout.goal : h]
+            hist[:-2] = hist[2:]
+            hist[-2:] = y
+        return y

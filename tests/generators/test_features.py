@@ -1,0 +1,52 @@
+"""One feature layout for training and the policy: the online rows equal the offline ones."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from behavior_hmm.generators._features import FeatureLayout
+
+
+@pytest.mark.parametrize(
+    "layout",
+    [
+        FeatureLayout(n_channels=2, window=4),
+        FeatureLayout(n_channels=1, window=10, history=3, clock=8),
+        FeatureLayout(n_channels=2, window=3, history=2, delta=True, clock=5, delta_scale=0.3),
+        FeatureLayout(n_channels=3, window=5, goal=2, history=1, clock=4),
+    ],
+)
+def test_online_rows_equal_offline_rows(layout: FeatureLayout) -> None:
+    rng = np.random.default_rng(0)
+    lengths = [7, 12]
+    x = rng.uniform(-1, 1, size=(sum(lengths), layout.n_channels))
+    goals = np.repeat(rng.uniform(-1, 1, size=(2, layout.goal)), lengths, axis=0)
+    online = layout.online()
+    y = np.zeros((sum(lengths), 2))
+    rows = []
+    start = 0
+    for n in lengths:
+        online.reset()
+        if layout.goal:
+            online.set_goal(goals[start])
+        for k in range(start, start + n):
+            online.push(x[k])
+            rows.append(online.row().copy())
+            out = rng.uniform(-1, 1, size=2)  # what a generator answered
+            y[k] = online.commit(out)
+        start += n
+    offline = layout.offline(x, y, lengths, goals if layout.goal else None)
+    assert offline.shape == (sum(lengths), layout.width)
+    np.testing.assert_allclose(np.asarray(rows), offline, atol=1e-12)
+
+
+def test_delta_commands_accumulate_within_bounds() -> None:
+    online = FeatureLayout(n_channels=1, window=2, history=1, delta=True, delta_scale=0.5).online()
+    online.push(np.zeros(1))
+    commands = []
+    for _ in range(5):
+        online.row()
+        commands.append(online.commit(np.array([1.0, -1.0])).copy())
+    assert commands[0].tolist() == [0.5, -0.5]
+    assert commands[-1].tolist() == [1.5, -1.5]  # clipped at DELTA_COMMAND_BOUND
