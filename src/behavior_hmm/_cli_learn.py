@@ -497,6 +497,9 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
                 scene = make_env("kinematic")
             for i, (trace, _) in enumerate(traces["model"]):
                 start = ", ".join(f"{k} {v:g}" for k, v in trace.start.items())
+                if not len(trace.pose):  # refused before any motion: nothing to show
+                    typer.echo(f"no video of case {i} ({start}): {trace.reason}", err=True)
+                    continue
                 write_video(
                     trace,
                     videos / f"case_{i:02d}.mp4",
@@ -598,9 +601,12 @@ def register(app: typer.Typer, wrap: Callable[[Any], Any], progress: Callable[[]
             cblm_params=params["CBLM"],
         )
         results["preset"] = name
-        radius = getattr(robot.unwrapped, "object_radius", None)
+        sizes = {
+            "object_radius": getattr(robot.unwrapped, "object_radius", None),
+            "body_radius": getattr(robot.unwrapped, "body_radius", None),
+        }
         with all_or_none():  # every file of the report, or none
-            table = write_robot_report(results, out, object_radius=radius)
+            table = write_robot_report(results, out, **sizes)
         typer.echo(table)
         typer.echo(f"results: {out}/results.json, trajectories.png and table.md")
 

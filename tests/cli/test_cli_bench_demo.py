@@ -46,10 +46,19 @@ def test_demo_collects_trains_composes_and_evaluates(invoke: Invoke, tmp_path: P
         png_size(out / f"{behavior}_run.png")
         assert (out / f"{behavior}.bhmm").stat().st_size > 0
         assert behavior in result.stdout
+        # a video of one run (GIF: Pillow comes with matplotlib) and a report of them all
+        from PIL import Image
+
+        with Image.open(out / f"{behavior}_run.gif") as gif:
+            assert gif.n_frames > 10
+        report = (out / f"{behavior}_report.html").read_text()
+        assert report.count("<img") >= 1
     # the report table: one row per behavior with its success rate, floor and goals
     assert "success %" in result.stdout and "zero floor %" in result.stdout
     assert "/15" in result.stdout
-    assert result.stdout.splitlines()[-1] == f"output (datasets, models, plots): {out}"
+    last = result.stdout.splitlines()[-2:]
+    assert last[0].startswith("videos: ") and str(out / "turn-approach_run.gif") in last[0]
+    assert last[1].startswith(f"reports: {out}/<behavior>_report.html")
 
 
 def test_demo_refuses_bad_options(invoke: Invoke, tmp_path: Path) -> None:

@@ -25,6 +25,7 @@ from behavior_hmm.runtime import Robot, make_robot_env, run_policy
 
 HERE = Path(__file__).resolve()
 PERIOD = 0.02  # s: not our 16 ms
+CONTACT = 0.1  # m between the robot's centre and the object's centre at contact
 
 
 class TwiceKhepera(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
@@ -58,7 +59,7 @@ class TwiceKhepera(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         bearing = (bearing + 180.0) % 360.0 - 180.0
         true = {
             "angle": bearing,
-            "distance": max(math.hypot(x, y) - 0.1, 0.0),
+            "distance": max(math.hypot(x, y) - CONTACT, 0.0),
             "linear_velocity": v,
             "angular_velocity": math.degrees(w),
         }
@@ -84,7 +85,7 @@ class TwiceKhepera(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         if options:
             raise ValueError(f"unknown reset options {sorted(options)}")
         # robot on the -x axis, object ahead at `angle` degrees of bearing
-        self._state = np.array([-(distance + 0.1), 0.0, -math.radians(angle), 0.0, 0.0])
+        self._state = np.array([-(distance + CONTACT), 0.0, -math.radians(angle), 0.0, 0.0])
         return self._observe()
 
     def step(
@@ -100,6 +101,9 @@ class TwiceKhepera(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         yaw += w * PERIOD
         x += v * math.cos(yaw) * PERIOD
         y += v * math.sin(yaw) * PERIOD
+        reach = math.hypot(x, y)
+        if reach < CONTACT:  # the object stops the robot: no driving through it
+            x, y = x * CONTACT / reach, y * CONTACT / reach
         self._state = np.array([x, y, yaw, wl, wr])
         obs, info = self._observe()
         return obs, 0.0, False, False, info

@@ -184,13 +184,15 @@ def complex_table(results: dict[str, Any]) -> str:
 
 
 def write_robot_report(
-    results: dict[str, Any], out_dir: str | os.PathLike[str], object_radius: float | None = None
+    results: dict[str, Any],
+    out_dir: str | os.PathLike[str],
+    object_radius: float | None = None,
+    body_radius: float | None = None,
 ) -> str:
     """Write ``results.json``, ``trajectories.png`` and ``table.md`` of ``experiment robot``.
 
     The figure has one panel per task: every test run's path seen from above (the robot's
-    outline every 2 s; green: goal reached), with the teacher's path from the same start
-    dashed. Returns the markdown table. ``results["evaluations"]`` may carry each task's
+    outline at its start and end; green: goal reached). Returns the markdown table. ``results["evaluations"]`` may carry each task's
     traces under ``"_traces"``; they are drawn, not saved.
     """
     from matplotlib.figure import Figure
@@ -209,7 +211,7 @@ def write_robot_report(
             (trace, case["goal_reached"])
             for (trace, _), case in zip(traces, evaluation["cases"], strict=True)
         ]
-        plot_trajectories(runs, ax, object_radius=object_radius)
+        plot_trajectories(runs, ax, object_radius=object_radius, body_radius=body_radius)
         ax.set_title(
             f"{row['task']}: {row['success_rate']:.1f} %, {row['goal_reached']}/{row['n']} goals"
         )

@@ -61,7 +61,8 @@ def plot_trajectory(
         ref = np.asarray(reference_pose, dtype=np.float64)
         ax.plot(ref[:, 0], ref[:, 1], color="0.45", ls="--", lw=1.0, label="teacher")
     ax.plot(pose[:, 0], pose[:, 1], color=color, lw=1.6, label=label)
-    marks = np.unique(np.searchsorted(t, np.arange(0.0, t[-1] + 1e-9, every_s)))
+    stride = every_s if math.isfinite(every_s) else max(float(t[-1]), 1e-9) * 2.0
+    marks = np.unique(np.searchsorted(t, np.arange(0.0, t[-1] + 1e-9, stride)))
     marks = np.union1d(marks, [len(pose) - 1])
     for k in marks:
         x, y, yaw = pose[int(k)]
@@ -98,10 +99,14 @@ def plot_trajectories(
     *,
     body_radius: float | None = None,
     object_radius: float | None = None,
-    every_s: float = 2.0,
+    every_s: float = math.inf,
     title: str | None = None,
 ) -> Figure:
-    """Overlay several runs ``(trace, goal_reached)``: green reached the goal, red did not."""
+    """Overlay several runs ``(trace, goal_reached)``: green reached the goal, red did not.
+
+    Each run shows its path and the robot's outline at the start and the end (and every
+    ``every_s`` seconds, when given).
+    """
     fig, ax = _own_axes(ax)
     for trace, reached in runs:
         if not len(trace.pose):
