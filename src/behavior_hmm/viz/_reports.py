@@ -192,8 +192,9 @@ def write_robot_report(
     """Write ``results.json``, ``trajectories.png`` and ``table.md`` of ``experiment robot``.
 
     The figure has one panel per task: every test run's path seen from above (the robot's
-    outline at its start and end; green: goal reached). Returns the markdown table. ``results["evaluations"]`` may carry each task's
-    traces under ``"_traces"``; they are drawn, not saved.
+    outline at its start and end; green: goal reached). Returns the markdown table.
+    ``results["evaluations"]`` may carry each task's traces under ``"_traces"``; they are
+    drawn, not saved.
     """
     from matplotlib.figure import Figure
 
