@@ -121,7 +121,7 @@ def test_evaluate_writes_a_self_contained_html_report(workdir: Path) -> None:
     text = page.read_text(encoding="utf-8")
     assert "zero floor" in text and "goals reached" in text
     assert text.count("<img") == 2 and "data:image/png;base64," in text
-    assert "{'angle': 35.0, 'distance': 0.5}" in html.unescape(text)  # escaped in the page
+    assert "35°, 0.50 m" in html.unescape(text)  # starts in units, not dict reprs
 
 
 @pytest.mark.parametrize(

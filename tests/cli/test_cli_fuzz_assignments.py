@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from behavior_hmm._cli_learn import START_KEYS, parse_assignments, parse_start
+from behavior_hmm.cli._common import START_KEYS, parse_assignments, parse_start
 from behavior_hmm.errors import BehaviorHMMError
 from behavior_hmm.models._goals import check_goal
 

@@ -79,7 +79,7 @@ def test_collect_refuses_noise_the_dataset_check_would_refuse(
 def test_the_largest_noise_allowed_records_a_valid_dataset(
     invoke: Invoke, work: dict[str, Path]
 ) -> None:
-    from behavior_hmm.cli import max_noise
+    from behavior_hmm.cli.data import max_noise
 
     starts = write_starts(work["data"].parent / "near.csv", "angle,distance", "30,0.05")
     out = work["data"].parent / "noisy.parquet"
@@ -219,13 +219,13 @@ def test_a_report_shows_a_refused_case(
 
 
 def test_a_refused_run_plots(tmp_path: Path, turn_bhmm: Path) -> None:
-    from behavior_hmm._cli_learn import load_model
+    from behavior_hmm.cli._common import load_model
     from behavior_hmm.evaluate._protocol import _refused
     from behavior_hmm.viz import plot_trace
 
     trace = _refused(load_model(turn_bhmm), {"angle": 120.0, "distance": 0.5}, None, "no path")
     assert len(trace.t) == 1 and len(trace.readings) == 0
-    png = plot_trace(trace, tmp_path / "refused.png")
+    plot_trace(trace, png := tmp_path / "refused.png")
     assert png_size(png)[0] > 0
 
 

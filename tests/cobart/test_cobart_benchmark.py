@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.cobart import run, synthetic_turn_episodes
+from behavior_hmm.benchmarks.cobart import run, synthetic_turn_episodes
 
 
 def test_synthetic_turns_are_normalized_filtered_episodes() -> None:

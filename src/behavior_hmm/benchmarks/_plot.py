@@ -1,7 +1,11 @@
 """Plots of the scaling curves for docs/performance.md, from the benchmarks' JSON.
 
-``python -m benchmarks._plot --step step.json --train train.json --hmm hmm.json -o DIR``
-writes ``step_scaling.png`` (control step against observation categories and against
+Usage::
+
+    python -m behavior_hmm.benchmarks._plot --step step.json --train train.json \
+        --hmm hmm.json -o DIR
+
+Writes ``step_scaling.png`` (control step against observation categories and against
 primitives), ``train_curve.png`` (training time against demonstrations) and
 ``viterbi.png`` (ours against hmmlearn), for the files given.
 """
@@ -114,7 +118,9 @@ def plot_hmm(results: dict[str, Any], out: Path) -> Path:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks._plot", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m behavior_hmm.benchmarks._plot", description=__doc__
+    )
     parser.add_argument("--step")
     parser.add_argument("--train")
     parser.add_argument("--hmm")

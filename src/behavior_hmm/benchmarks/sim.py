@@ -2,8 +2,8 @@
 
 Usage::
 
-    python -m benchmarks.sim            # full run, prints JSON
-    python -m benchmarks.sim --quick    # fewer, shorter repeats
+    python -m behavior_hmm.benchmarks.sim            # full run, prints JSON
+    python -m behavior_hmm.benchmarks.sim --quick    # fewer, shorter repeats
 
 Every figure is simulated seconds per wall-clock second (median over repeats) for the
 same varying wheel command, starting 1.0 m from the object.  ``bare_mujoco_rtf`` steps

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks._common import default_dataset
+from behavior_hmm.benchmarks._common import default_dataset
 
 #: Multiples of the default turn grid in the curve.
 CURVE_FACTORS = (1, 2, 4, 8)

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks._common import default_dataset
+from behavior_hmm.benchmarks._common import default_dataset
 
 #: Observation categories and primitives of the scaling curve (without ``--quick``).
 OBSERVATION_TARGETS = (100, 500, 1000, 2000, 5000)
@@ -190,12 +190,13 @@ def _scaling(quick: bool, env: Any) -> list[dict[str, Any]]:
 
 def run(quick: bool = False) -> dict[str, Any]:
     from behavior_hmm.models import SBLM
+    from behavior_hmm.runtime import Robot
     from behavior_hmm.sim import make_env
     from behavior_hmm.teach import test_starts
 
     model = SBLM(inputs=("angle",)).fit(default_dataset("turn"))
     env = make_env("kinematic")
-    period_us = env.unwrapped.params.control_period * 1e6
+    period_us = Robot(env).control_period * 1e6
     timed = time_steps(model, "turn", env, test_starts("turn")[: 5 if quick else None])
     results: dict[str, Any] = {
         **{k: v for k, v in timed.items() if k.startswith("step_")},

@@ -1,4 +1,4 @@
-"""``python -m benchmarks NAME [--json OUT.json] [--quick]``."""
+"""``python -m behavior_hmm.benchmarks NAME [--json OUT.json] [--quick]``."""
 
 from __future__ import annotations
 
@@ -6,11 +6,11 @@ import argparse
 import json
 import sys
 
-from benchmarks import available, run_benchmark
+from behavior_hmm.benchmarks import available, run_benchmark
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m behavior_hmm.benchmarks", description=__doc__)
     parser.add_argument("name", choices=available())
     parser.add_argument("--json", dest="json_out")
     parser.add_argument("--quick", action="store_true")

@@ -17,6 +17,12 @@ The two sides are timed alternately, repeat by repeat, so that load on a shared 
 hits both alike. ``paths_agree`` says whether the decoded paths are identical (and the
 log probabilities are compared too). hmmlearn is an optional dependency
 (``pip install 'behavior-hmm[bench]'``); without it only our side is timed.
+
+``sparse`` repeats the comparison on models counted without smoothing, as trained
+Behavior-HMMs are: each state has a few successors and emits a few categories, so most
+of A and B is zero (``-inf`` in log space), and the observations are a walk of the model
+(``transition_density`` is the share of possible transitions). hmmlearn's work does not
+depend on it; ours scores only the possible transitions.
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ import numpy as np
 SIZES = ((50, 200), (500, 1000))
 #: Observation categories per state.
 CATEGORIES_PER_STATE = 4
+#: Successors per state in the sparse models.
+SPARSE_SUCCESSORS = 4
 
 
 def _model(n_states: int, n_observations: int, rng: np.random.Generator) -> Any:
@@ -43,6 +51,33 @@ def _model(n_states: int, n_observations: int, rng: np.random.Generator) -> Any:
     observations = rng.integers(0, n_observations, samples)
     hmm = BehaviorHMM(n_states=n_states, n_observations=n_observations, smoothing=1.0)
     return hmm.fit(states, observations)
+
+
+def _sparse_model(
+    n_states: int, n_observations: int, steps: int, rng: np.random.Generator
+) -> tuple[Any, np.ndarray]:
+    """A sparse Behavior-HMM (no smoothing) and an observation sequence it can explain.
+
+    Counted from a walk on a random graph with ``SPARSE_SUCCESSORS`` successors per state
+    (one of them the next state of a cycle through all, so every state recurs), each
+    state emitting one of ``CATEGORIES_PER_STATE`` categories; the decoded sequence is
+    the first ``steps`` observations of that walk.
+    """
+    from behavior_hmm.hmm import BehaviorHMM
+
+    successors = rng.integers(0, n_states, (n_states, SPARSE_SUCCESSORS))
+    successors[:, 0] = (np.arange(n_states) + 1) % n_states
+    emitted = rng.integers(0, n_observations, (n_states, CATEGORIES_PER_STATE))
+    samples = max(20_000, 200 * n_states)
+    picks = rng.integers(0, SPARSE_SUCCESSORS, samples).tolist()
+    table = successors.tolist()
+    walk = [int(rng.integers(0, n_states))]
+    for pick in picks[1:]:
+        walk.append(table[walk[-1]][pick])
+    states = np.array(walk)
+    observations = emitted[states, rng.integers(0, CATEGORIES_PER_STATE, samples)]
+    hmm = BehaviorHMM(n_states=n_states, n_observations=n_observations, smoothing=0.0)
+    return hmm.fit(states, observations), observations[:steps]
 
 
 def _hmmlearn_model(hmm: Any) -> Any:
@@ -67,12 +102,17 @@ def _alternate(fns: dict[str, Callable[[], Any]], repeats: int) -> dict[str, flo
     return {name: float(np.median(t)) for name, t in times.items()}
 
 
-def _size(n_states: int, steps: int, repeats: int, rng: np.random.Generator) -> dict[str, Any]:
+def _size(
+    n_states: int, steps: int, repeats: int, rng: np.random.Generator, sparse: bool = False
+) -> dict[str, Any]:
     from behavior_hmm.hmm._viterbi import viterbi_log
 
     n_obs = CATEGORIES_PER_STATE * n_states
-    hmm = _model(n_states, n_obs, rng)
-    observations = rng.integers(0, n_obs, steps)
+    if sparse:
+        hmm, observations = _sparse_model(n_states, n_obs, steps, rng)
+    else:
+        hmm = _model(n_states, n_obs, rng)
+        observations = rng.integers(0, n_obs, steps)
     ours_states, ours_log_prob = hmm.viterbi(observations)
     row: dict[str, Any] = {
         "states": n_states,
@@ -80,6 +120,8 @@ def _size(n_states: int, steps: int, repeats: int, rng: np.random.Generator) -> 
         "observation_categories": n_obs,
         "repeats": repeats,
     }
+    if sparse:
+        row["transition_density"] = float(np.isfinite(hmm.log_A_).mean())
     fns: dict[str, Callable[[], Any]] = {
         "ours": lambda: hmm.viterbi(observations),
         "ours_kernel": lambda: viterbi_log(hmm.log_pi_, hmm.log_A_, hmm.log_B_, observations),
@@ -111,18 +153,23 @@ def _size(n_states: int, steps: int, repeats: int, rng: np.random.Generator) -> 
 def run(quick: bool = False) -> dict[str, Any]:
     rng = np.random.default_rng(0)
     rows = []
+    sparse_rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # hmmlearn's deprecation notices, not ours to fix
         for n_states, steps in SIZES:
             small = n_states * n_states * steps < 10**6
             repeats = (21 if quick else 101) if small else (3 if quick else 21)
             rows.append(_size(n_states, steps, repeats, rng))
-    results: dict[str, Any] = {"sizes": rows}
+        for n_states, steps in SIZES:
+            small = n_states * n_states * steps < 10**6
+            repeats = (21 if quick else 51) if small else (3 if quick else 7)
+            sparse_rows.append(_size(n_states, steps, repeats, rng, sparse=True))
+    results: dict[str, Any] = {"sizes": rows, "sparse": sparse_rows}
     try:
         import hmmlearn
 
         results["hmmlearn_version"] = str(hmmlearn.__version__)
-        results["paths_agree"] = all(row["paths_agree"] for row in rows)
+        results["paths_agree"] = all(row["paths_agree"] for row in rows + sparse_rows)
     except ImportError:
         results["hmmlearn_version"] = None
         results["note"] = "hmmlearn is not installed: pip install 'behavior-hmm[bench]'"

@@ -1,7 +1,13 @@
-"""Speed benchmarks: ``behavior-hmm bench NAME --json OUT.json`` or ``python -m benchmarks NAME``.
+"""Speed benchmarks, one module per topic.
 
-Each module ``benchmarks/<name>.py`` defines ``run(quick: bool = False) -> dict[str, float]``
-returning medians (and ratios against a baseline measured in the same run where possible).
+Usage::
+
+    behavior-hmm bench sim --json sim.json
+    python -m behavior_hmm.benchmarks sim --json sim.json    # the same, without the CLI
+
+Each module ``behavior_hmm/benchmarks/<name>.py`` defines
+``run(quick: bool = False) -> dict[str, float]`` returning medians (and ratios against a
+baseline measured in the same run where possible).
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ def run_benchmark(name: str, *, quick: bool = False) -> dict[str, Any]:
     names = available()
     if name not in names:
         raise ConfigError(f"unknown benchmark '{name}'; choose one of {', '.join(names)}")
-    module = importlib.import_module(f"benchmarks.{name}")
+    module = importlib.import_module(f"{__name__}.{name}")
     results: dict[str, Any] = dict(module.run(quick=quick))
     results.setdefault("benchmark", name)
     return results

@@ -3,7 +3,7 @@
 Usage::
 
     behavior-hmm bench cobart --json OUT.json
-    python -m benchmarks.cobart [--quick]          # prints the JSON
+    python -m behavior_hmm.benchmarks.cobart [--quick]          # prints the JSON
 
 Figures (medians over repeats, one thread):
 
@@ -147,8 +147,8 @@ def _live_latency(
 
 def default_turn_data() -> tuple[FloatArray, IntArray]:
     """The default turn dataset, filtered and normalized like the SBLM does (angle, ang. vel.)."""
+    from behavior_hmm.benchmarks._common import default_dataset
     from behavior_hmm.data import SignalPipeline
-    from benchmarks._common import default_dataset
 
     ds = default_dataset("turn")
     x = SignalPipeline(("angle", "angular_velocity")).transform(ds)

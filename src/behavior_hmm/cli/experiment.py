@@ -1,0 +1,416 @@
+"""``behavior-hmm experiment ...``: the thesis's experiments and ours, each a folder of
+results (``results.json``, ``table.md`` and figures).
+
+Usage::
+
+    behavior-hmm experiment simple --sim kinematic        # thesis tables 6.3 / 6.4
+    behavior-hmm experiment complex                       # thesis table 6.5, fig 6.10
+    behavior-hmm experiment categorization                # thesis §6.1
+    behavior-hmm experiment generators --epochs 20        # thesis §6.2, appendix A
+    behavior-hmm experiment ablation --task turn          # what each departure buys
+    behavior-hmm experiment faults --fault noise          # goal reached under faults
+    behavior-hmm experiment robot --env behavior_hmm/Husky-v0 -o results/husky
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from behavior_hmm.cli._common import (
+    CONTEXT_SETTINGS,
+    AddressOption,
+    ConfigOption,
+    EnvKwargsOption,
+    ExecutorOption,
+    NoiseOption,
+    OutFolder,
+    PresetOption,
+    SeedOption,
+    SeedsOption,
+    SetOption,
+    SimOption,
+    WorkersOption,
+    check_noise,
+    check_seed,
+    check_sim,
+    log,
+    make_run_executor,
+    model_params,
+    open_env,
+    progress,
+    user_errors,
+    with_progress,
+)
+from behavior_hmm.errors import ConfigError
+from behavior_hmm.evaluate._experiments import check_seeds
+
+app = typer.Typer(
+    context_settings=CONTEXT_SETTINGS,
+    no_args_is_help=True,
+    help="Reproduce the thesis's experiments.\n\n"
+    "Example: behavior-hmm experiment simple --sim kinematic -o results/simple",
+)
+
+TaskOption = Annotated[
+    list[str] | None,
+    typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
+]
+
+
+@app.command("simple")
+@user_errors
+def experiment_simple(
+    out: OutFolder = Path("results/simple"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    noise: NoiseOption = 0.0,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+    workers: WorkersOption = None,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
+    seeds: SeedsOption = 1,
+) -> None:
+    """Thesis tables 6.3 and 6.4: SBLM vs the thesis and behavior cloning.
+
+    Example: behavior-hmm experiment simple --sim kinematic --preset thesis -o results/simple
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._experiments import run_simple_experiment
+    from behavior_hmm.viz import write_simple_report
+
+    check_sim(sim)
+    check_seed(seed)
+    check_noise(noise)
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM",), preset, config, set_)
+    check_seeds(seeds)
+    runner = make_run_executor(executor, workers, address)
+    results = with_progress(
+        f"experiment simple ({sim}, {name} preset)",
+        run_simple_experiment,
+        executor=runner,
+        seeds=seeds,
+        sim=sim,
+        seed=seed,
+        noise=noise,
+        sblm_params=params["SBLM"],
+    )
+    results["preset"] = name
+    with all_or_none():  # every file of the report, or none
+        table = write_simple_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, figures and table.md", out)
+
+
+@app.command("robot")
+@user_errors
+def experiment_robot(
+    env: Annotated[
+        str,
+        typer.Option(
+            "--env",
+            help="The robot: a registered Gymnasium id, package.module:factory or "
+            "path/to/file.py:factory (docs/robots.md)",
+        ),
+    ],
+    out: OutFolder = Path("results/robot"),
+    env_kwargs: EnvKwargsOption = None,
+    seed: SeedOption = 0,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+) -> None:
+    """Turn, approach and turn & approach on any robot, composed from its own components.
+
+    Our teacher demonstrates on the robot from the default grids (angles in deg,
+    distances in m) scaled to it (env.unwrapped.start_scale); the test starts are scaled
+    the same way.
+
+    Example: behavior-hmm experiment robot --env behavior_hmm/Husky-v0 -o results/husky
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._robot_experiment import run_robot_experiment
+    from behavior_hmm.viz import write_robot_report
+
+    check_seed(seed)
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
+    robot, robot_name = open_env("mujoco", env, env_kwargs)
+    results = with_progress(
+        f"experiment robot ({robot_name}, {name} preset)",
+        run_robot_experiment,
+        env=robot,
+        env_name=robot_name,
+        seed=seed,
+        sblm_params=params["SBLM"],
+        cblm_params=params["CBLM"],
+    )
+    results["preset"] = name
+    sizes = {
+        "object_radius": getattr(robot.unwrapped, "object_radius", None),
+        "body_radius": getattr(robot.unwrapped, "body_radius", None),
+    }
+    with all_or_none():  # every file of the report, or none
+        table = write_robot_report(results, out, **sizes)
+    typer.echo(table)
+    log.info("results: %s/results.json, trajectories.png and table.md", out)
+
+
+@app.command("complex")
+@user_errors
+def experiment_complex(
+    out: OutFolder = Path("results/complex"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    noise: NoiseOption = 0.0,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+    workers: WorkersOption = None,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
+    seeds: SeedsOption = 1,
+) -> None:
+    """Thesis table 6.5 and fig 6.10, plus position over {turn, approach, retreat}.
+
+    Example: behavior-hmm experiment complex --sim kinematic -o results/complex
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._experiments import run_complex_experiment
+    from behavior_hmm.viz import write_complex_report
+
+    check_sim(sim)
+    check_seed(seed)
+    check_noise(noise)
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
+    check_seeds(seeds)
+    runner = make_run_executor(executor, workers, address)
+    results = with_progress(
+        f"experiment complex ({sim}, {name} preset)",
+        run_complex_experiment,
+        executor=runner,
+        seeds=seeds,
+        sim=sim,
+        seed=seed,
+        noise=noise,
+        sblm_params=params["SBLM"],
+        cblm_params=params["CBLM"],
+    )
+    results["preset"] = name
+    with all_or_none():  # every file of the report, or none
+        table = write_complex_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, figures and table.md", out)
+
+
+@app.command("ablation")
+@user_errors
+def experiment_ablation(
+    out: OutFolder = Path("results/ablation"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    noise: NoiseOption = 0.0,
+    task: TaskOption = None,
+    departure: Annotated[
+        list[str] | None,
+        typer.Option(help="Only this departure's rows (repeatable), e.g. onset_clock"),
+    ] = None,
+) -> None:
+    """What each departure from the thesis buys: thesis, thesis + each, default, default - each.
+
+    Every row is trained on the same demonstrations and scored from the test starts,
+    beside the all-zero floor. Writes results.json, table.md and ablation.png.
+
+    Example: behavior-hmm experiment ablation --sim kinematic --task turn -o results/abl
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._ablation import run_ablation
+    from behavior_hmm.evaluate._ablation import task as ablation_task
+    from behavior_hmm.models._presets import departure as named_departure
+    from behavior_hmm.viz._ablation import write_ablation_report
+
+    check_sim(sim)
+    check_seed(seed)
+    check_noise(noise)
+    check_outputs({}, {}, folders={"-o": out})
+    for name in departure or []:
+        named_departure(name)  # refuse bad names before any work
+    for name in task or []:
+        ablation_task(name)
+
+    results = with_progress(
+        f"experiment ablation ({sim})",
+        run_ablation,
+        sim=sim,
+        seed=seed,
+        noise=noise,
+        tasks=task or None,
+        departures=departure or None,
+    )
+    with all_or_none():  # every file of the report, or none
+        table = write_ablation_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, table.md and ablation.png", out)
+
+
+@app.command("faults")
+@user_errors
+def experiment_faults(
+    out: OutFolder = Path("results/faults"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    task: TaskOption = None,
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Only this fault kind (repeatable): noise, wheel_mismatch, motor_lag, "
+            "speed_limit, push_bearing, push_distance, dropout"
+        ),
+    ] = None,
+) -> None:
+    """Fault sweep: goal reached and success rate of the default models under faults.
+
+    Sensor noise, wheel mismatch, motor lag, wheel-speed limits, pushes (bearing in
+    deg, distance in m) and NaN dropouts, one at a time, from each task's 15 test
+    starts. Writes results.json, table.md, faults_goal.png and faults_success.png.
+
+    Example: behavior-hmm experiment faults --sim kinematic --task turn --fault noise
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._ablation import task as ablation_task
+    from behavior_hmm.evaluate._faults import fault_kind, run_faults
+    from behavior_hmm.viz._faults import write_faults_report
+
+    check_sim(sim)
+    check_seed(seed)
+    for name in task or []:
+        ablation_task(name)  # refuse bad names before any work
+    for name in fault or []:
+        fault_kind(name)
+    check_outputs({}, {}, folders={"-o": out})
+    with progress() as bar:
+        job = bar.add_task(f"experiment faults ({sim})", total=None)
+        results = run_faults(
+            sim=sim,
+            seed=seed,
+            tasks=task or None,
+            faults=fault or None,
+            progress=lambda d, t: bar.update(job, completed=d, total=t),
+        )
+    with all_or_none():  # every file of the report, or none
+        table = write_faults_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, table.md, faults_goal.png, faults_success.png", out)
+
+
+@app.command("categorization")
+@user_errors
+def experiment_categorization(
+    out: OutFolder = Path("results/categorization"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+) -> None:
+    """Thesis §6.1: turn primitives at vigilance 0.85 and 0.75 (table 6.1, figs 6.1-6.4).
+
+    Example: behavior-hmm experiment categorization --sim kinematic -o results/cat
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._categorization import (
+        TABLE_6_1_STARTS,
+        run_categorization_experiment,
+    )
+    from behavior_hmm.teach import collect
+    from behavior_hmm.viz._categories import write_categorization_report
+
+    check_sim(sim)
+    check_seed(seed)
+    check_outputs({}, {}, folders={"-o": out})
+    train = collect("turn", sim=sim, seed=seed)
+    samples = collect("turn", [{"angle": a} for a in TABLE_6_1_STARTS], sim=sim, seed=seed + 1000)
+    results = run_categorization_experiment(train, samples)
+    with all_or_none():  # every file of the report, or none
+        table = write_categorization_report(results, out)
+    typer.echo(table)
+    log.info("figures and categorization.json in %s", out)
+
+
+@app.command("generators")
+@user_errors
+def experiment_generators(
+    out: OutFolder = Path("results/generators"),
+    sim: SimOption = "mujoco",
+    epochs: Annotated[int, typer.Option(help="Epochs per setting")] = 100,
+    seed: SeedOption = 0,
+) -> None:
+    """Thesis §6.2 and appendix A: generator training sweeps (figs 6.5-6.7, A.1).
+
+    One representative turn primitive (the robot moving, its commands changing),
+    incremental training; test error against iterations (samples presented).
+
+    Example: behavior-hmm experiment generators --sim kinematic --epochs 20 -o results/gen
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.cobart import CobART
+    from behavior_hmm.data import CommandScaler, SignalPipeline
+    from behavior_hmm.evaluate import run_generator_sweeps
+    from behavior_hmm.generators import make_windows
+    from behavior_hmm.teach import collect
+    from behavior_hmm.viz import plot_generator_sweeps
+
+    check_sim(sim)
+    check_seed(seed)
+    if epochs < 1:
+        raise ConfigError(f"--epochs must be an integer >= 1, got {epochs}")
+    check_outputs({}, {}, folders={"-o": out})
+    data = collect("turn", sim=sim, seed=seed)
+    x = SignalPipeline(("angle",)).transform(data)
+    primitives = CobART.motion_primitives().fit(x, data.lengths).labels_
+    windows = make_windows(x, data.lengths, 10)
+    # appendix A: two-input networks (angle and angular velocity, 20 inputs) on the
+    # same primitive's rows
+    x2 = SignalPipeline(("angle", "angular_velocity")).transform(data)
+    windows2 = make_windows(x2, data.lengths, 10)
+    y = CommandScaler().fit(data.commands).transform(data.commands)
+    with all_or_none():  # the summary and every figure, or none
+        report = run_generator_sweeps(
+            windows,
+            y,
+            primitives,
+            out,
+            epochs=epochs,
+            X_two_inputs=windows2,
+            inputs_label="angle",
+            two_inputs_label="angle, angular velocity",
+            random_state=seed,
+        )
+        figures = plot_generator_sweeps(report, out)
+    chosen = report["selection"]["chosen"]
+    typer.echo(
+        f"primitive {report['primitive']}: {chosen['n_samples']} samples, target std "
+        f"{chosen['target_std']:.3f}, RMS {chosen['target_rms']:.3f} (medians "
+        f"{report['selection']['median_target_std']:.3f}, "
+        f"{report['selection']['median_target_rms']:.3f}); {report['n_train']} training "
+        f"samples = iterations per epoch"
+    )
+    for name, entries in report["sweeps"].items():
+        typer.echo(f"{name} sweep:")
+        for label, entry in entries.items():
+            typer.echo(
+                f"  {label:16s} best test RMS {entry['best_test_error']:.4f} at iteration "
+                f"{entry['best_iteration']} (epoch {entry['best_epoch']}), final "
+                f"{entry['final_test_error']:.4f}"
+            )
+    log.info("figures: %s", ", ".join(figures.values()))

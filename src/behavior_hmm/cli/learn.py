@@ -1,0 +1,465 @@
+"""Commands that learn a behavior, perform it and score it.
+
+Usage::
+
+    behavior-hmm train simple data/turn.parquet --inputs angle -o models/turn.bhmm
+    behavior-hmm train complex data/ta.parquet --component models/turn.bhmm \\
+        --component models/approach.bhmm -o models/ta.bhmm
+    behavior-hmm generate models/turn.bhmm --start angle=120 --goal angle=0 --plot run.png
+    behavior-hmm evaluate models/turn.bhmm --starts starts.csv --baseline bc --json out.json
+
+Angles are in degrees, distances in metres, wheel speeds in rad/s.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from behavior_hmm.cli._common import (
+    CONTEXT_SETTINGS,
+    ConfigOption,
+    EnvKwargsOption,
+    EnvOption,
+    NoiseOption,
+    PresetOption,
+    SeedOption,
+    SetOption,
+    SimOption,
+    VideoBackendOption,
+    check_noise,
+    check_seed,
+    check_sim,
+    check_video,
+    load_model,
+    log,
+    model_params,
+    open_env,
+    parse_assignments,
+    parse_start,
+    progress,
+    spinner,
+    user_errors,
+    warn_provenance,
+    write_video,
+)
+from behavior_hmm.errors import ConfigError, DatasetError
+
+app = typer.Typer(context_settings=CONTEXT_SETTINGS)
+train_app = typer.Typer(
+    context_settings=CONTEXT_SETTINGS,
+    no_args_is_help=True,
+    help="Learn a behavior from demonstrations.\n\n"
+    "Example: behavior-hmm train simple data/turn.parquet --inputs angle -o models/turn.bhmm",
+)
+app.add_typer(train_app, name="train")
+
+ModelFile = Annotated[Path, typer.Argument(help="A model file (.bhmm)")]
+ModelOut = Annotated[Path, typer.Option("-o", "--out", help="Model file to write")]
+
+
+def _inputs(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise ConfigError("--inputs needs at least one channel, e.g. --inputs angle")
+    return names
+
+
+# -------------------------------------------------------------------------- train
+
+
+@train_app.command("simple")
+@user_errors
+def train_simple(
+    data: Annotated[Path, typer.Argument(help="Demonstrations (Parquet)")],
+    inputs: Annotated[str, typer.Option(help="Input channels, e.g. angle,angular_velocity")],
+    out: ModelOut,
+    seed: SeedOption = 0,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+) -> None:
+    """Learn a simple behavior (SBLM) from demonstrations.
+
+    Example: behavior-hmm train simple data/turn.parquet --inputs angle --preset thesis
+    -o models/turn-thesis.bhmm
+    """
+    from behavior_hmm import data as bdata
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.models import SBLM, describe_params
+
+    check_seed(seed)
+    check_outputs({"DATA": data, "--config": config}, {"-o": out})
+    _, params = model_params(("SBLM",), preset, config, set_)
+    model = SBLM(**params["SBLM"], inputs=_inputs(inputs), random_state=seed)
+    model.check_params()  # before any data is read
+    dataset = bdata.read(data)
+    log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
+    t0 = time.perf_counter()
+    with spinner(f"train simple on {data.name}"):
+        model.fit(dataset)
+    model.set_training_data(data)
+    model.save(out)
+    typer.echo(
+        f"wrote {out}: {model.behavior_} on {','.join(model.inputs_)}, "
+        f"{model.primitives_.n_categories_} primitives, "
+        f"{model.observations_.n_categories_} observation categories, "
+        f"preset {describe_params('SBLM', model.get_params())} "
+        f"({time.perf_counter() - t0:.1f} s)"
+    )
+
+
+@train_app.command("complex")
+@user_errors
+def train_complex(
+    data: Annotated[Path, typer.Argument(help="Tagged demonstrations (behavior column)")],
+    component: Annotated[list[Path], typer.Option(help="A learned behavior (.bhmm), repeatable")],
+    out: ModelOut,
+    inputs: Annotated[str, typer.Option(help="Input channels")] = "distance,angle",
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+) -> None:
+    """Compose learned behaviors (CBLM) from demonstrations tagged per row.
+
+    The preset, config and --set choose the CBLM's own parameters; the components
+    keep theirs.
+
+    Example: behavior-hmm train complex data/ta.parquet --component models/turn.bhmm
+    --component models/approach.bhmm --preset thesis -o models/ta.bhmm
+    """
+    from behavior_hmm import data as bdata
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.models import CBLM, describe_params
+
+    check_outputs({"DATA": data, "--component": component, "--config": config}, {"-o": out})
+    _, params = model_params(("CBLM",), preset, config, set_)
+    CBLM(**params["CBLM"]).check_params()  # before any file is read
+    components = [load_model(path) for path in component]
+    dataset = bdata.read(data)
+    log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
+    t0 = time.perf_counter()
+    with spinner(f"train complex on {data.name}"):
+        model = CBLM(components, **params["CBLM"], inputs=_inputs(inputs)).fit(dataset)
+    model.set_training_data(data)
+    model.save(out)
+    typer.echo(
+        f"wrote {out}: {model.behavior_} over {', '.join(model.names_)} on "
+        f"{','.join(model.inputs_)}, {model.observations_.n_categories_} observation "
+        f"categories, preset {describe_params('CBLM', model.get_params())} "
+        f"({time.perf_counter() - t0:.1f} s); components unchanged"
+    )
+
+
+# ----------------------------------------------------------------------- generate
+
+
+@app.command()
+@user_errors
+def generate(
+    model_file: ModelFile,
+    start: Annotated[
+        str,
+        typer.Option(help="Start: angle (deg) and/or distance (m), e.g. angle=120,distance=0.5"),
+    ],
+    goal: Annotated[
+        str | None,
+        typer.Option(
+            help="Goal: angle (deg) and/or distance (m), e.g. angle=0 "
+            "(default: where the demonstrations end)"
+        ),
+    ] = None,
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    noise: NoiseOption = 0.0,
+    out: Annotated[
+        Path | None, typer.Option("-o", "--out", help="Trace (Parquet; see inspect)")
+    ] = None,
+    env: EnvOption = None,
+    env_kwargs: EnvKwargsOption = None,
+    video: Annotated[
+        Path | None, typer.Option(help="Video of the run: run.mp4 or run.gif (video extra)")
+    ] = None,
+    video_backend: VideoBackendOption = "matplotlib",
+    plot: Annotated[
+        Path | None,
+        typer.Option(help="Plot of the run, in its extension's format (.png, .svg, .pdf)"),
+    ] = None,
+) -> None:
+    """Perform a learned behavior from a start to a goal in the simulator.
+
+    Prints the run's summary as JSON (final errors in deg and m) and exits with 1 when
+    the goal is not reached. The trace (-o) and the plot (--plot) are written together,
+    or neither is.
+
+    Example: behavior-hmm generate models/turn.bhmm --start angle=120 --goal angle=0
+    --sim kinematic --plot run.png -o run.parquet
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+
+    check_sim(sim)
+    check_seed(seed)
+    check_noise(noise)
+    check_outputs(
+        {"MODEL_FILE": model_file},
+        {"-o": out, "--plot": plot, "--video": video},
+        plots=("--plot",),
+    )
+    if video is not None:
+        check_video(video, video_backend)
+    begin = parse_start(start, arena=env is None)
+    target = parse_assignments(goal, "--goal") if goal is not None else None
+    model = load_model(model_file)
+    if target is not None:
+        model.resolve_goal(target)  # refuse a bad goal before any motion
+    robot, robot_name = open_env(sim, env, env_kwargs)
+    warn_provenance(model, robot, robot_name)
+    trace = model.generate(robot, start=begin, goal=target, seed=seed, noise=noise or None)
+    summary = trace.summary()
+    typer.echo(json.dumps(summary, default=float))
+    with all_or_none():
+        if out is not None:
+            trace.write(out)
+        if plot is not None:
+            from behavior_hmm.viz import plot_trace
+
+            plot_trace(trace, plot)
+        if video is not None:
+            write_video(trace, video, video_backend, robot, title=model_file.stem)
+    if out is not None:
+        log.info("trace: %s", out)
+    if plot is not None:
+        log.info("plot: %s", plot)
+    if video is not None:
+        log.info("video: %s", video)
+    if not trace.goal_reached:
+        raise typer.Exit(code=1)
+
+
+# ----------------------------------------------------------------------- evaluate
+
+
+@app.command()
+@user_errors
+def evaluate(
+    model_file: ModelFile,
+    starts: Annotated[
+        Path | None,
+        typer.Option(
+            help="Starts CSV: columns angle (deg), distance (m) and goal_<channel>; "
+            "default: the behavior's 15 test starts"
+        ),
+    ] = None,
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    noise: NoiseOption = 0.0,
+    baseline: Annotated[
+        list[str] | None, typer.Option(help="Baselines to run beside the model: bc")
+    ] = None,
+    data: Annotated[
+        Path | None, typer.Option(help="Training data for baselines (default: the model's)")
+    ] = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results")] = None,
+    report: Annotated[
+        Path | None, typer.Option(help="Write an HTML report (tables and plots)")
+    ] = None,
+    push: Annotated[
+        str | None,
+        typer.Option(
+            help="Push every run: at=FRACTION of the teacher's duration, angle=DEG of "
+            "bearing (sign drawn per case from the seed), distance=M, "
+            "e.g. at=0.5,angle=20"
+        ),
+    ] = None,
+    env: EnvOption = None,
+    env_kwargs: EnvKwargsOption = None,
+    videos: Annotated[
+        Path | None,
+        typer.Option(help="Folder for one video per run, case_NN.mp4 (video extra)"),
+    ] = None,
+    video_backend: VideoBackendOption = "matplotlib",
+) -> None:
+    """Score a model (and baselines) against the teacher from test starts.
+
+    Every start (and its goal) is checked before the first case runs; --json and
+    --report are written together, or neither is. Each case also records the largest
+    command change in one period against the teacher's (command_jump_ratio) and the
+    primitive (SBLM) or component (CBLM) switches.
+
+    Example: behavior-hmm evaluate models/turn.bhmm --push at=0.5,angle=20 --json t.json
+    """
+    from behavior_hmm._atomic import all_or_none, atomic_write_bytes
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate import evaluate_model
+    from behavior_hmm.teach import read_starts, scaled_starts, test_starts
+
+    check_sim(sim)
+    check_seed(seed)
+    check_noise(noise)
+    pushed = _push(push) if push is not None else None
+    robot, robot_name = open_env(sim, env, env_kwargs) if env is not None else (None, sim)
+    inputs: dict[str, Any] = {"MODEL_FILE": model_file, "--starts": starts, "--data": data}
+    outputs = {"--json": json_out, "--report": report}
+    check_outputs(inputs, outputs, folders={"--videos": videos} if videos else None)
+    if videos is not None:
+        check_video(videos / "case_00.mp4", video_backend)
+    model = load_model(model_file)
+    if baseline and data is None and getattr(model, "train_data_", None):
+        # the baselines train on the model's own data file: never write over it
+        inputs["the model's training data"] = Path(model.train_data_)
+        check_outputs(inputs, outputs)
+    if robot is None:
+        chosen = read_starts(starts) if starts is not None else test_starts(model.behavior_)
+    else:
+        warn_provenance(model, robot, robot_name)
+        chosen = (
+            read_starts(starts, math.inf)
+            if starts is not None
+            else scaled_starts(test_starts(model.behavior_), robot)
+        )
+    _check_cases(model, chosen, starts, arena=robot is None)
+    baselines = _baselines(baseline or [], model, data, seed)
+    with progress() as bar:
+        task = bar.add_task(f"evaluate {model.behavior_} ({robot_name})", total=None)
+        result = evaluate_model(
+            model,
+            chosen,
+            sim=None if robot is not None else sim,
+            env=robot,
+            seed=seed,
+            noise=noise,
+            baselines=baselines,
+            progress=lambda d, t: bar.update(task, completed=d, total=t),
+            keep_traces=report is not None or videos is not None,
+            push=pushed,
+        )
+    traces = result.pop("_traces", None)
+    if videos is not None and traces:
+        _write_videos(videos, traces["model"], video_backend, robot, str(model.behavior_))
+    text = json.dumps(result, indent=1, default=float)
+    with all_or_none():
+        if json_out is not None:
+            atomic_write_bytes(json_out, text.encode())
+        if report is not None:
+            from behavior_hmm.viz import write_evaluation_report
+
+            write_evaluation_report(result, traces, report)
+    if report is not None:
+        log.info("report: %s", report)
+    _print_evaluation(result)
+
+
+def _write_videos(
+    folder: Path, runs: list[tuple[Any, Any]], backend: str, robot: Any, behavior: str
+) -> None:
+    """One video per case, ``case_NN.mp4``; a case refused before any motion has none."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if robot is not None:
+        scene = robot
+    else:  # our robot: its sizes (kinematic: no physics needed to draw it)
+        from behavior_hmm.sim import make_env
+
+        scene = make_env("kinematic")
+    for i, (trace, _) in enumerate(runs):
+        start = ", ".join(f"{k} {v:g}" for k, v in trace.start.items())
+        if not len(trace.pose):  # refused before any motion: nothing to show
+            log.warning("no video of case %d (%s): %s", i, start, trace.reason)
+            continue
+        write_video(
+            trace, folder / f"case_{i:02d}.mp4", backend, scene, title=f"{behavior} from {start}"
+        )
+    log.info("videos: %s/case_00.mp4 ... case_%02d.mp4", folder, len(runs) - 1)
+
+
+def _check_cases(
+    model: Any, starts: list[dict[str, float]], file: Path | None, arena: bool = True
+) -> None:
+    """Refuse, before the first case runs, any start the teacher cannot demonstrate or
+    whose goal (``goal_<channel>``) the model cannot take (``arena``: our arena's bounds)."""
+    from behavior_hmm.evaluate import split_start
+    from behavior_hmm.teach import complete_start, plan_phases
+
+    behavior = str(model.behavior_)
+    for i, row in enumerate(starts):
+        begin, goal = split_start(row)
+        try:
+            full = complete_start(behavior, begin, None if arena else math.inf)
+            plan_phases(behavior, full["angle"], full["distance"], goal.get("distance"))
+            if goal:
+                model.resolve_goal(goal)
+        except ConfigError as err:
+            values = ", ".join(f"{key} {value:g}" for key, value in row.items())
+            raise DatasetError(
+                f"start {i + 1} ({values}): {err}", file=None if file is None else str(file)
+            ) from None
+
+
+def _push(text: str) -> dict[str, float]:
+    """``--push at=0.5,angle=20,distance=0.05`` checked (fraction in (0, 1], sizes bounded)."""
+    values = parse_assignments(text, "--push")
+    unknown = sorted(set(values) - {"at", "angle", "distance"})
+    if unknown:
+        raise ConfigError(f"--push: unknown key(s) {', '.join(unknown)}; use at, angle, distance")
+    at = values.setdefault("at", 0.5)
+    if not 0.0 < at <= 1.0:
+        raise ConfigError(f"--push at={at:g}: a fraction of the teacher's duration in (0, 1]")
+    if abs(values.get("angle", 0.0)) > 180.0:
+        raise ConfigError(f"--push angle={values['angle']:g}: at most 180 deg")
+    if abs(values.get("distance", 0.0)) > 1.0:
+        raise ConfigError(f"--push distance={values['distance']:g}: at most 1 m")
+    return values
+
+
+def _baselines(names: list[str], model: Any, data: Path | None, seed: int) -> dict[str, Any]:
+    if not names:
+        return {}
+    unknown = [n for n in names if n != "bc"]
+    if unknown:
+        raise ConfigError(f"unknown baseline '{unknown[0]}'; available: bc")
+    from behavior_hmm import data as bdata
+    from behavior_hmm.evaluate import BehaviorCloning
+
+    source = data or (Path(model.train_data_) if getattr(model, "train_data_", None) else None)
+    if source is None:
+        raise ConfigError("--baseline bc needs the training data: pass --data DATA.parquet")
+    try:
+        dataset = bdata.read(source)
+    except DatasetError as err:
+        raise DatasetError(f"baseline training data: {err}") from None
+    return {"bc": BehaviorCloning(inputs=model.inputs_, random_state=seed).fit(dataset)}
+
+
+def _print_evaluation(result: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{result['behavior']} on {','.join(result['inputs'])} ({result['sim']})")
+    columns = ["", "success %", "goal reached", "zero floor %", "motor-max %", "duration x"]
+    columns += ["jump x (median/max)", "switches (max)"]
+    if "pushed" in result:
+        columns.append("pushed")
+    for col in columns:
+        table.add_column(col)
+    kind = str(result.get("kind", "model"))
+    rows = [(kind, result)] + [(n, r) for n, r in result["baselines"].items()]
+    for name, r in rows:
+        cells = [
+            name,
+            f"{r['success_rate_mean']:.1f}",
+            f"{r['goal_reached']}/{r['n']}",
+            f"{r['zero_floor_mean']:.1f}",
+            f"{r['success_rate_motor_max_mean']:.1f}",
+            f"{r['duration_ratio_mean']:.2f}",
+            f"{r['command_jump_ratio_median']:.1f} / {r['command_jump_ratio_max']:.1f}",
+            f"{r['switches_max']}",
+        ]
+        if "pushed" in result:
+            cells.append(f"{r.get('pushed', 0)}/{r['n']}")
+        table.add_row(*cells)
+    Console().print(table)
