@@ -165,7 +165,8 @@ def test_sweeps_refuse_bad_input(rng: np.random.Generator, tmp_path: Path) -> No
 
 def test_plot_learning_curves_writes_a_png(tmp_path: Path) -> None:
     curves = {"a": np.geomspace(1.0, 0.01, 30), "b": np.r_[np.linspace(0.5, 0.2, 10), [np.nan] * 5]}
-    path = plot_learning_curves(curves, tmp_path / "sub" / "curves.png", "title")
+    path = tmp_path / "sub" / "curves.png"
+    plot_learning_curves(curves, path, "title")
     assert path.read_bytes().startswith(PNG_MAGIC)
     with pytest.raises(ConfigError):
         plot_learning_curves({}, tmp_path / "x.png", "empty")

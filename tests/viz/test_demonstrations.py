@@ -51,8 +51,9 @@ def _subplots(monkeypatch: pytest.MonkeyPatch) -> list[Figure]:
 
 def test_writes_a_png(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     figures = _subplots(monkeypatch)
-    out = plot_demonstrations(_ds(), tmp_path / "plots" / "demo.png")
-    assert out == tmp_path / "plots" / "demo.png"
+    out = tmp_path / "plots" / "demo.png"
+    fig = plot_demonstrations(_ds(), out)
+    assert fig is figures[0]
     assert out.read_bytes()[:8] == PNG_MAGIC
     assert imread(out).shape[0] > 300
     axes = [ax for ax in figures[0].axes if ax.get_label() != "<colorbar>"]

@@ -146,7 +146,7 @@ def test_complex_grid_draws_angle_and_distance_per_start() -> None:
     assert len(fig.axes) == 30  # angle and distance for each of the 15 starts
     titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
     assert len(titles) == 15
-    assert titles[0] == "angle 0°, distance 0.50 m: 88.0 %"
+    assert titles[0] == "angle 0°, distance 0.50 m: success 88.0 %"
     assert titles[2].endswith("goal missed")
     angle_ax = fig.axes[2]
     # demonstration + one segment per active component, each in its component's colour

@@ -22,7 +22,7 @@ from behavior_hmm.viz._traces import (
     plot_generated_vs_demonstrated,
     plot_trace,
 )
-from behavior_hmm.viz._trajectory import plot_trajectories, plot_trajectory
+from behavior_hmm.viz._trajectory import plot_trajectories, plot_trajectory, replay_pose
 from behavior_hmm.viz._video import frame_grid, render_rollout, render_trace
 
 __all__ = [
@@ -43,6 +43,7 @@ __all__ = [
     "plot_trajectory",
     "render_rollout",
     "render_trace",
+    "replay_pose",
     "simple_panels",
     "simple_table",
     "write_complex_report",

@@ -8,41 +8,86 @@ from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
+from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import FancyArrowPatch
 
-from behavior_hmm.viz._traces import _save
+from behavior_hmm.viz._traces import _save, new_figure, root_figure
+
+#: Start angles (deg) span this range; their colour scale.
+_ANGLE_NORM = Normalize(-180.0, 180.0)
+_ANGLE_CMAP = colormaps["coolwarm"]
 
 
-def plot_angle_vs_category(run: dict[str, Any], path: str | os.PathLike[str]) -> Path:
-    """Rotational angle versus motion-primitive id, one colour per start (figs 6.1 / 6.3)."""
+def _axes(ax: Axes | None, figsize: tuple[float, float]) -> tuple[Figure, Axes]:
+    if ax is None:
+        ax = new_figure(figsize).add_subplot()
+    return root_figure(ax), ax
+
+
+def _angle_bar(ax: Axes, label: str) -> None:
+    owner = ax.get_figure()
+    assert owner is not None
+    bar = owner.colorbar(ScalarMappable(norm=_ANGLE_NORM, cmap=_ANGLE_CMAP), ax=ax, pad=0.01)
+    bar.set_label(label)
+    bar.set_ticks([-180, -90, 0, 90, 180])
+
+
+def plot_angle_vs_category(
+    run: dict[str, Any],
+    path: str | os.PathLike[str] | None = None,
+    *,
+    ax: Axes | None = None,
+) -> Figure:
+    """Rotational angle versus motion-primitive id, one colour per start (figs 6.1 / 6.3).
+
+    Each training episode's samples are coloured by its start angle (colour bar).
+    Draws into ``ax`` (default a new figure), writes ``path`` when given, and returns
+    the figure.
+    """
     labels = np.asarray(run["labels"])
     angles = np.asarray(run["angles"])
     lengths = np.asarray(run["lengths"])
     starts = np.asarray(run["episode_starts"])
-    fig = Figure(figsize=(8, 5), layout="constrained")
-    ax = fig.subplots()
-    cmap = colormaps["coolwarm"]
+    fig, ax = _axes(ax, (8, 5))
     offsets = np.r_[0, np.cumsum(lengths)]
     for a, b, start in zip(offsets[:-1], offsets[1:], starts, strict=True):
-        color = cmap((start + 180.0) / 360.0)
+        color = _ANGLE_CMAP(_ANGLE_NORM(start))
         ax.plot(angles[a:b], labels[a:b], ".", ms=2.5, color=color, alpha=0.8)
     ax.set_xlabel("rotational angle (deg)")
     ax.set_ylabel("motion primitive id")
     ax.set_title(
         f"turn demonstrations categorized at vigilance {run['rho']:g}: "
-        f"{run['n_primitives']} primitives (colour: start angle)"
+        f"{run['n_primitives']} motion primitives"
     )
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    _angle_bar(ax, "start angle of the demonstration (deg)")
+    if path is not None:
+        _save(fig, path)
+    return fig
 
 
-def plot_transition_diagram(run: dict[str, Any], path: str | os.PathLike[str]) -> Path:
+def _edge_width(count: float, top: float) -> float:
+    return float(0.5 + 2.5 * np.log1p(count) / np.log1p(top))
+
+
+def plot_transition_diagram(
+    run: dict[str, Any],
+    path: str | os.PathLike[str] | None = None,
+    *,
+    ax: Axes | None = None,
+) -> Figure:
     """Primitive transition diagram (figs 6.2 / 6.4).
 
     Nodes sit at the mean rotational angle of their samples (x) and are spread over
     two bands, negative starts above and positive below (as in fig 6.4); arrows show
-    observed transitions, thicker for more frequent ones.
+    observed transitions, their width growing with the logarithm of the transition
+    count (a legend gives the scale). Node colour: the primitive's mean angle (colour
+    bar). Draws into ``ax`` (default a new figure), writes ``path`` when given, and
+    returns the figure.
     """
     labels = np.asarray(run["labels"])
     angles = np.asarray(run["angles"])
@@ -61,21 +106,20 @@ def plot_transition_diagram(run: dict[str, Any], path: str | os.PathLike[str]) -
     for rank, i in enumerate(order):
         band = -1.0 if side[i] > 0.5 else 1.0
         y[i] = band * (1.0 + (rank % 4) * 0.6)
-    fig = Figure(figsize=(11, 6), layout="constrained")
-    ax = fig.subplots()
-    top = counts.max() if counts.size and counts.max() > 0 else 1.0
+    fig, ax = _axes(ax, (11, 6))
+    off_diagonal = counts[~np.eye(k, dtype=bool)] if k else counts.ravel()
+    top = float(off_diagonal.max()) if off_diagonal.size and off_diagonal.max() > 0 else 1.0
     for i in range(k):
         for j in range(k):
             if i == j or counts[i, j] <= 0:
                 continue
-            width = 0.5 + 2.5 * np.log1p(counts[i, j]) / np.log1p(top)
             ax.add_patch(
                 FancyArrowPatch(
                     (mean_angle[i], y[i]),
                     (mean_angle[j], y[j]),
                     arrowstyle="-|>",
                     mutation_scale=9,
-                    lw=width,
+                    lw=_edge_width(counts[i, j], top),
                     color="0.35",
                     alpha=0.6,
                     connectionstyle="arc3,rad=0.15",
@@ -87,21 +131,38 @@ def plot_transition_diagram(run: dict[str, Any], path: str | os.PathLike[str]) -
         mean_angle,
         y,
         s=260,
-        c=mean_angle,
-        cmap="coolwarm",
-        vmin=-180,
-        vmax=180,
+        c=_ANGLE_CMAP(_ANGLE_NORM(mean_angle)),
         edgecolors="k",
         zorder=3,
     )
     for i in range(k):
         ax.annotate(str(i), (mean_angle[i], y[i]), ha="center", va="center", fontsize=7, zorder=4)
+    present = sorted({int(c) for c in off_diagonal if c > 0})
+    middle = round(float(np.median(present))) if present else 0
+    scale = sorted({present[0], middle, present[-1]}) if present else []
+    handles = [
+        Line2D([], [], color="0.35", alpha=0.6, lw=_edge_width(c, top), label=f"{c}") for c in scale
+    ]
+    if handles:
+        ax.legend(
+            handles=handles,
+            title="transitions counted\n(edge width ∝ log count)",
+            loc="upper right",
+            fontsize=8,
+            title_fontsize=8,
+        )
     ax.set_xlabel("mean rotational angle of the primitive (deg)")
     ax.set_yticks([2, -2], ["negative starts", "positive starts"])
     ax.set_ylim(-3.5, 3.5)
     ax.grid(alpha=0.3, axis="x")
-    ax.set_title(f"motion-primitive transitions at vigilance {run['rho']:g}")
-    return _save(fig, path)
+    ax.set_title(
+        f"motion-primitive transitions at vigilance {run['rho']:g} "
+        f"({k} primitives, node number = primitive id)"
+    )
+    _angle_bar(ax, "mean rotational angle of the primitive (deg)")
+    if path is not None:
+        _save(fig, path)
+    return fig
 
 
 def write_categorization_report(results: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:

@@ -12,19 +12,19 @@ Panels come from :func:`simple_panels`, which regroups the per-input-set series 
 
 from __future__ import annotations
 
+import itertools
 import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
+from matplotlib.figure import Figure, SubFigure
 from matplotlib.lines import Line2D
 
 from behavior_hmm.data import CONTROL_PERIOD, UNITS
 from behavior_hmm.errors import ConfigError
-from behavior_hmm.viz._traces import _save
+from behavior_hmm.viz._traces import _save, new_figure, root_figure
 
 #: Colour of the demonstration in every figure here.
 DEMO_STYLE: dict[str, Any] = {"color": "k", "ls": "--", "lw": 1.3}
@@ -85,12 +85,6 @@ def simple_panels(series: Sequence[Mapping[str, Any]], behavior: str) -> list[di
     return panels
 
 
-def _new_figure(figsize: tuple[float, float]) -> Figure:
-    fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
 def _times(n: int) -> np.ndarray:
     return np.arange(n) * CONTROL_PERIOD
 
@@ -110,7 +104,7 @@ def draw_start_panel(
     """
     channel = str(panel["channel"])
     demo = np.asarray(panel["demonstrated"], dtype=float)
-    ax.plot(_times(demo.size), demo, label="demonstrated", zorder=3, **DEMO_STYLE)
+    ax.plot(_times(demo.size), demo, label="teacher", zorder=3, **DEMO_STYLE)
     lines = []
     for i, (label, gen) in enumerate(panel["generated"].items()):
         gen = np.asarray(gen, dtype=float)
@@ -142,16 +136,31 @@ def draw_start_panel(
     ax.set_title(title if title is not None else start_label(panel["start"], channel), fontsize=9)
     if legend:
         ax.legend(fontsize=fontsize, loc="center right")
-    fig = ax.get_figure()
-    assert isinstance(fig, Figure)
-    return fig
+    return root_figure(ax)
 
 
 def _legend_handles(panel: Mapping[str, Any]) -> list[Line2D]:
     handles = [Line2D([], [], label="demonstrated (teacher)", **DEMO_STYLE)]
     for i, label in enumerate(panel["generated"]):
         handles.append(Line2D([], [], color=f"C{i % 10}", lw=1.6, label=f"generated, {label}"))
+    if panel.get("success_rate"):
+        handles.append(Line2D([], [], ls="", label="%: success rate (* goal missed)"))
     return handles
+
+
+def _legend_columns(handles: Sequence[Line2D], width_in: float, fontsize: float = 9.0) -> int:
+    """Columns of a figure legend: one row if it fits ``width_in`` inches, else more rows."""
+    entry = [len(str(h.get_label())) * fontsize * 0.55 / 72.0 + 0.9 for h in handles]
+    n = len(handles)
+    for rows in range(1, n + 1):
+        cols = -(-n // rows)
+        # a legend fills its columns one after another, the first n % cols one longer
+        sizes = [n // cols + (c < n % cols) for c in range(cols)]
+        bounds = np.cumsum([0, *sizes])
+        widths = [max(entry[a:b], default=0.0) for a, b in itertools.pairwise(bounds)]
+        if sum(widths) <= 0.95 * width_in:
+            return cols
+    return 1
 
 
 def plot_thesis_starts(
@@ -159,16 +168,18 @@ def plot_thesis_starts(
     path: str | os.PathLike[str] | None = None,
     *,
     title: str = "",
+    fig: Figure | SubFigure | None = None,
 ) -> Figure:
     """Thesis figures 6.8 / 6.9: one axes per start, input sets overlaid on the demonstration.
 
-    ``panels`` from :func:`simple_panels`; writes a PNG when ``path`` is given.
+    ``panels`` from :func:`simple_panels`; drawn into ``fig`` (a figure or subfigure;
+    default a new figure), written when ``path`` is given. Returns the (root) figure.
     """
     if not panels:
         raise ConfigError("no panels to plot")
     channel = str(panels[0]["channel"])
-    fig = _new_figure((5.2 * len(panels), 4.4))
-    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    owner = fig if fig is not None else new_figure((5.2 * len(panels), 4.4))
+    axes = owner.subplots(1, len(panels), squeeze=False)[0]
     for k, (ax, panel) in enumerate(zip(axes, panels, strict=True)):
         draw_start_panel(
             panel,
@@ -178,17 +189,18 @@ def plot_thesis_starts(
         )
         ax.set_xlabel("time (s)")
     axes[0].set_ylabel(f"{channel} ({UNITS[channel]})")
-    fig.legend(
+    owner.legend(
         handles=_legend_handles(panels[0]),
         loc="outside lower center",
-        ncol=len(panels[0]["generated"]) + 1,
+        ncol=_legend_columns(_legend_handles(panels[0]), owner.bbox.width / owner.dpi),
         fontsize=9,
     )
     if title:
-        fig.suptitle(title)
+        owner.suptitle(title)
+    figure = root_figure(owner)
     if path is not None:
-        _save(fig, path)
-    return fig
+        _save(figure, path)
+    return figure
 
 
 def plot_start_grid(
@@ -197,15 +209,19 @@ def plot_start_grid(
     *,
     title: str = "",
     ncols: int = 3,
+    fig: Figure | SubFigure | None = None,
 ) -> Figure:
-    """Appendix B.1 / B.2: one panel per start (:func:`draw_start_panel`), ``ncols`` wide."""
+    """Appendix B.1 / B.2: one panel per start (:func:`draw_start_panel`), ``ncols`` wide.
+
+    Drawn into ``fig`` (default a new figure), written when ``path`` is given.
+    """
     if not panels:
         raise ConfigError("no panels to plot")
     channel = str(panels[0]["channel"])
     ncols = max(1, min(ncols, len(panels)))
     nrows = -(-len(panels) // ncols)
-    fig = _new_figure((3.7 * ncols, 2.45 * nrows + 0.9))
-    axes = fig.subplots(nrows, ncols, squeeze=False)
+    owner = fig if fig is not None else new_figure((3.7 * ncols, 2.45 * nrows + 0.9))
+    axes = owner.subplots(nrows, ncols, squeeze=False)
     for k, ax in enumerate(axes.flat):
         if k >= len(panels):
             ax.set_visible(False)
@@ -213,18 +229,19 @@ def plot_start_grid(
         draw_start_panel(panels[k], ax=ax)
         if k + ncols >= len(panels):  # the lowest panel of its column
             ax.set_xlabel("time (s)", fontsize=9)
-    fig.supylabel(f"{channel} ({UNITS[channel]})", fontsize=10)
-    fig.legend(
+    owner.supylabel(f"{channel} ({UNITS[channel]})", fontsize=10)
+    owner.legend(
         handles=_legend_handles(panels[0]),
         loc="outside lower center",
-        ncol=len(panels[0]["generated"]) + 1,
+        ncol=_legend_columns(_legend_handles(panels[0]), owner.bbox.width / owner.dpi),
         fontsize=9,
     )
     if title:
-        fig.suptitle(title)
+        owner.suptitle(title)
+    figure = root_figure(owner)
     if path is not None:
-        _save(fig, path)
-    return fig
+        _save(figure, path)
+    return figure
 
 
 def component_colors(names: Sequence[str]) -> dict[str, str]:
@@ -254,9 +271,7 @@ def draw_complex_channel(
             start = k
     ax.grid(alpha=0.3)
     ax.tick_params(labelsize=fontsize)
-    fig = ax.get_figure()
-    assert isinstance(fig, Figure)
-    return fig
+    return root_figure(ax)
 
 
 def _complex_handles(colors: Mapping[str, str]) -> list[Line2D]:
@@ -284,34 +299,38 @@ def plot_complex_grid(
     *,
     title: str = "",
     ncols: int = 3,
+    fig: Figure | SubFigure | None = None,
 ) -> Figure:
     """Appendix B.3: per start, angle (upper) and distance (lower) of turn & approach.
 
     ``runs`` are the ``figure`` entries of ``run_complex_experiment`` (``start``, ``t``,
     ``angle``, ``distance``, ``component``, ``demo_angle``, ``demo_distance`` and
-    optionally ``success_rate`` / ``goal_reached``). Writes a PNG when ``path`` is given.
+    optionally ``success_rate`` / ``goal_reached``). Drawn into ``fig`` (default a new
+    figure, sized for the grid), written when ``path`` is given.
     """
     if not runs:
         raise ConfigError("no runs to plot")
     colors = component_colors([name for run in runs for name in run["component"]])
     ncols = max(1, min(ncols, len(runs)))
     nrows = -(-len(runs) // ncols)
-    height = 3.6 * nrows + 1.2
-    fig = Figure(figsize=(4.0 * ncols, height))
-    FigureCanvasAgg(fig)
+    owner = fig if fig is not None else new_figure((4.0 * ncols, 3.6 * nrows + 1.2), layout=None)
+    width, height = owner.bbox.width / owner.dpi, owner.bbox.height / owner.dpi
     # Fixed margins (in inches) rather than a layout engine, so that each start's two
     # axes stay glued together while the starts stay apart.
-    fig.subplots_adjust(
-        left=0.7 / (4.0 * ncols),
-        right=1 - 0.15 / (4.0 * ncols),
+    outer = owner.add_gridspec(
+        nrows,
+        ncols,
+        left=0.7 / width,
+        right=1 - 0.15 / width,
         top=1 - 0.75 / height,
         bottom=0.75 / height,
+        hspace=0.32,
+        wspace=0.3,
     )
-    outer = fig.add_gridspec(nrows, ncols, hspace=0.32, wspace=0.3)
     for k, run in enumerate(runs):
         inner = outer[k // ncols, k % ncols].subgridspec(2, 1, hspace=0.06)
-        ax_angle = fig.add_subplot(inner[0])
-        ax_dist = fig.add_subplot(inner[1], sharex=ax_angle)
+        ax_angle = owner.add_subplot(inner[0])
+        ax_dist = owner.add_subplot(inner[1], sharex=ax_angle)
         draw_complex_channel(run, "angle", ax=ax_angle, colors=colors)
         draw_complex_channel(run, "distance", ax=ax_dist, colors=colors)
         _min_span(ax_angle, [run["angle"], run["demo_angle"]], 5.0)
@@ -323,11 +342,11 @@ def plot_complex_grid(
         text = f"angle {start['angle']:g}°, distance {start['distance']:.2f} m"
         if "success_rate" in run:
             mark = "" if run.get("goal_reached", True) else ", goal missed"
-            text += f": {run['success_rate']:.1f} %{mark}"
+            text += f": success {run['success_rate']:.1f} %{mark}"
         ax_angle.set_title(text, fontsize=9)
         if k + ncols >= len(runs):  # the lowest start of its column
             ax_dist.set_xlabel("time (s)", fontsize=9)
-    fig.legend(
+    owner.legend(
         handles=_complex_handles(colors),
         loc="lower center",
         bbox_to_anchor=(0.5, 0.05 / height),
@@ -335,7 +354,8 @@ def plot_complex_grid(
         fontsize=9,
     )
     if title:
-        fig.suptitle(title, y=1 - 0.15 / height)
+        owner.suptitle(title, y=1 - 0.15 / height)
+    figure = root_figure(owner)
     if path is not None:
-        _save(fig, path)
-    return fig
+        _save(figure, path)
+    return figure

@@ -9,13 +9,12 @@ from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import EngFormatter
 from numpy.typing import ArrayLike
 
-from behavior_hmm._atomic import atomic_write_with
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.viz._traces import _save, new_figure, root_figure
 
 #: File stem of each sweep's figure and the thesis figure it stands for.
 SWEEP_FIGURES: dict[str, str] = {
@@ -65,11 +64,8 @@ def draw_learning_curves(
     if logy is None:
         logy = bool(finite.size and finite.min() > 0 and finite.max() > 10 * finite.min())
     if ax is None:
-        fig = Figure(figsize=(7.0, 4.5), layout="constrained")
-        FigureCanvasAgg(fig)
-        ax = fig.add_subplot()
-    else:
-        fig = ax.get_figure()  # type: ignore[assignment]
+        ax = new_figure((7.0, 4.5)).add_subplot()
+    fig = root_figure(ax)
     for label, arr in arrays.items():
         xs = np.arange(1, arr.size + 1) if x is None else np.asarray(x, dtype=np.float64)
         if xs.shape != arr.shape:
@@ -89,23 +85,27 @@ def draw_learning_curves(
 
 def plot_learning_curves(
     curves: Mapping[str, ArrayLike],
-    path: str | os.PathLike[str],
-    title: str,
+    path: str | os.PathLike[str] | None = None,
+    title: str = "",
     *,
     x: ArrayLike | None = None,
     xlabel: str = "epoch",
     ylabel: str = "test RMS error (normalized commands)",
     logy: bool | None = None,
-) -> Path:
-    """Plot one error curve per label (:func:`draw_learning_curves`) and write a PNG atomically.
+    ax: Axes | None = None,
+) -> Figure:
+    """Plot one error curve per label (:func:`draw_learning_curves`) and return the figure.
 
-    Returns ``path`` (its folder is created if needed).
+    Draws into ``ax`` (default a new figure); when ``path`` is given also writes it
+    atomically (its folder is created if needed).
     """
     _as_curves(curves)  # refuse bad input before touching the file system
-    fig = draw_learning_curves(curves, x=x, title=title, xlabel=xlabel, ylabel=ylabel, logy=logy)
-    target = Path(path)
-    atomic_write_with(target, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
-    return target
+    fig = draw_learning_curves(
+        curves, x=x, title=title, xlabel=xlabel, ylabel=ylabel, logy=logy, ax=ax
+    )
+    if path is not None:
+        _save(fig, path, dpi=110)
+    return fig
 
 
 def sweep_curves(
@@ -144,13 +144,9 @@ def plot_generator_sweeps(
             f"{title}\n({thesis}primitive {report['primitive']}, "
             f"{n_train} training samples per epoch)"
         )
-        path = plot_learning_curves(
-            curves,
-            out / f"generator_sweep_{name}.png",
-            title,
-            x=x,
-            xlabel=xlabel,
-            ylabel="test RMS error (normalized commands)",
+        path = out / f"generator_sweep_{name}.png"
+        plot_learning_curves(
+            curves, path, title, x=x, xlabel=xlabel, ylabel="test RMS error (normalized commands)"
         )
         figures[name] = str(path)
     return figures
