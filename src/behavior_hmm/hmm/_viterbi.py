@@ -5,11 +5,17 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-#: Rows of the (rows, N) score buffer in one block: the block of scores stays in the cache
-#: between the add and the argmax (≈ 256 KB); small models use one block of N rows.
+#: Elements of the (rows, N) score buffer in one block of a large model: the block of
+#: scores stays in the cache between the add and the max (≈ 256 KB).
 _BLOCK_ELEMENTS = 32_768
 #: Models with at most this many transitions (N²) score all states in one block.
-_ONE_BLOCK_MAX = 131_072
+_ONE_BLOCK_MAX = 32_768
+#: Transition tables with at most this share of possible (finite) entries are scored
+#: entry by entry (work proportional to the possible transitions) instead of densely.
+_SPARSE_MAX_DENSITY = 0.2
+#: Up to this many states the forward pass also stores every best predecessor (an argmax
+#: per state and step), which costs less than recomputing them while backtracking.
+_PREDECESSORS_MAX_STATES = 16
 
 
 def viterbi_log(
@@ -40,91 +46,202 @@ def viterbi_log(
 
     Notes
     -----
-    Each step is one (N, N) add of the previous scores to the transposed transitions
-    (``scores[j, i] = log a_ij + delta_i``), one argmax per row (ties go to the lowest
-    predecessor, as in hmmlearn), and a gather of the winning scores plus the emissions,
-    all written into buffers allocated once. The sums are formed in the same order as
-    hmmlearn's compiled Viterbi (``delta_i + log a_ij``, then ``+ log b_j``), so both give
-    the same path and the same log probability. A large model scores the states in
-    blocks of rows so that each block stays in the cache.
+    Each step of the forward pass is a fixed handful of numpy calls on buffers allocated
+    once, so that small models pay little per step and large ones stream through the
+    cache. From 17 states on, the forward pass keeps only the best scores, as hmmlearn's
+    compiled Viterbi does: the previous scores are copied into every row of a tile, one
+    flat add with the transposed transitions gives ``scores[j, i] = log a_ij + delta_i``,
+    one segmented max (``maximum.reduceat``) the best score of each state, and one add
+    the emissions; a large table is scored in blocks of rows that stay in the cache, a
+    sparse one (mostly ``-inf``) only at its possible transitions. Backtracking then
+    recomputes the best predecessor of each position from the stored scores (one add
+    and one argmax). Smaller models store the best predecessors during the forward pass
+    instead (an argmax per row of the scores).
+
+    The sums are formed in hmmlearn's order (``delta_i + log a_ij``, then ``+ log b_j``),
+    so both give the same log probability, to the bit, and the same path except among
+    equally likely predecessors: the argmax keeps the lowest state index, hmmlearn's
+    backtracking the highest; either path is optimal.
     """
     n = log_pi.shape[0]
     t_len = observations.shape[0]
-    emit = np.ascontiguousarray(log_B.T)[observations]  # row t = log b_j(o_t) for all j
+    emit = _emissions(log_B, observations)  # row t = log b_j(o_t) for all j
     lattice = np.empty((t_len, n))
     np.add(log_pi, emit[0], out=lattice[0])
     if not np.isfinite(lattice[0].max()):
         return np.zeros(t_len, dtype=np.int64), float("-inf"), 0
-    psi = np.empty((t_len, n), dtype=np.intp)
-    if t_len > 1:
-        _forward(np.ascontiguousarray(log_A.T), emit, lattice, psi)
-    # Once every state is impossible, every later one is too (-inf only propagates).
-    alive = np.isfinite(lattice.max(axis=1))
-    if not alive[-1]:
-        return np.zeros(t_len, dtype=np.int64), float("-inf"), int(np.argmin(alive))
-    states = np.empty(t_len, dtype=np.int64)
+    log_at = _aligned_empty((n, n))
+    log_at[...] = log_A.T  # row j = log a_·j: the transitions into state j
+    psi = None
+    if t_len > 1 and n <= _PREDECESSORS_MAX_STATES:
+        psi = _forward_predecessors(log_at, emit, lattice)
+    elif t_len > 1:
+        _forward(log_at, emit, lattice)
     state = int(lattice[-1].argmax())
     log_prob = float(lattice[-1, state])
-    item = psi.item
-    for t in range(t_len - 1, 0, -1):
-        states[t] = state
-        state = item(t, state)
-    states[0] = state
-    return states, log_prob, -1
+    if not np.isfinite(log_prob):
+        # Once every state is impossible, every later one is too (-inf only propagates).
+        alive = np.isfinite(lattice.max(axis=1))
+        return np.zeros(t_len, dtype=np.int64), float("-inf"), int(np.argmin(alive))
+    if psi is not None:
+        return _follow(psi, state), log_prob, -1
+    return _backtrack(log_at, lattice, state), log_prob, -1
+
+
+def _emissions(log_B: NDArray[np.float64], observations: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``log_B[:, observations].T`` as a C-contiguous (T, N) array."""
+    if log_B.nbytes <= 1 << 20:  # in the cache: gather the columns directly
+        return log_B.T.take(observations, axis=0)
+    # a large table: gather inside its rows, then transpose only the T columns needed
+    return np.ascontiguousarray(log_B.take(observations, axis=1).T)
+
+
+def _aligned_empty(shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """An uninitialized float64 array whose data starts on a 64-byte (cache line) boundary.
+
+    numpy's vectorized add writes whole cache lines when its output is aligned, about
+    twice as fast as unaligned on small buffers.
+    """
+    size = int(np.prod(shape))
+    raw = np.empty(size + 8)
+    skip = (-raw.ctypes.data % 64) // raw.itemsize
+    return raw[skip : skip + size].reshape(shape)
 
 
 def _forward(
     log_at: NDArray[np.float64],
     emit: NDArray[np.float64],
     lattice: NDArray[np.float64],
-    psi: NDArray[np.intp],
 ) -> None:
-    """Fill ``lattice[1:]`` (best log scores) and ``psi[1:]`` (best predecessors) in place.
+    """Fill ``lattice[1:]`` with the best log scores, in place.
 
     ``log_at`` is the transposed log transition table (row j = log a_·j), ``emit[t]`` the
     log emissions of observation t, ``lattice[0]`` the start scores.
     """
     n = log_at.shape[0]
-    rows = n if n * n <= _ONE_BLOCK_MAX else max(16, _BLOCK_ELEMENTS // n)
-    buf = np.empty((rows, n))
-    offsets = np.arange(0, rows * n, n, dtype=np.intp)  # flat index of each row's start
-    flat_index = np.empty(rows, dtype=np.intp)
-    add = np.add
-    steps = zip(psi[1:], lattice[1:], emit[1:], strict=True)
+    finite = np.isfinite(log_at)
+    if np.count_nonzero(finite) <= _SPARSE_MAX_DENSITY * n * n:
+        _forward_sparse(log_at, finite, emit, lattice)
+        return
+    rows = n if n * n <= _ONE_BLOCK_MAX else min(n, max(8, _BLOCK_ELEMENTS // n))
+    tile = _aligned_empty((rows, n))  # every row = the previous scores
+    fill = tile.__setitem__
+    buf = _aligned_empty((rows * n,))
+    add, reduceat = np.add, np.maximum.reduceat
+    steps = zip(lattice[1:], emit[1:], strict=True)
     prev = lattice[0]
     if rows == n:
-        take, argmax = buf.reshape(-1).take, buf.argmax
-        for best, cur, e in steps:
-            add(log_at, prev, buf)  # buf[j, i] = delta_i + log a_ij
-            argmax(1, best)
-            add(best, offsets, flat_index)
-            take(flat_index, None, cur, "wrap")  # indices are in range: no checked copy
+        flat_at, flat_tile = log_at.reshape(-1), tile.reshape(-1)
+        starts = np.arange(0, n * n, n)
+        for cur, e in steps:
+            fill(Ellipsis, prev)
+            add(flat_at, flat_tile, buf)  # buf[j * n + i] = log a_ij + delta_i
+            reduceat(buf, starts, 0, None, cur)  # best score into each state j
             add(cur, e, cur)
             prev = cur
         return
     blocks = []
     for start in range(0, n, rows):
         stop = min(start + rows, n)
-        block = buf[: stop - start]
+        size = (stop - start) * n
+        flat_tile = tile.reshape(-1)[:size]
         blocks.append(
-            (
-                log_at[start:stop],
-                block,
-                block.reshape(-1).take,
-                slice(start, stop),
-                offsets[: stop - start],
-                flat_index[: stop - start],
-            )
+            (log_at[start:stop].reshape(-1), flat_tile, buf[:size], np.arange(0, size, n), start)
         )
-    for best, cur, e in steps:
-        for at, block, take, rows_of, offs, index in blocks:
-            block_best = best[rows_of]
-            add(at, prev, block)
-            block.argmax(1, block_best)
-            add(block_best, offs, index)
-            take(index, None, cur[rows_of], "wrap")
+    for cur, e in steps:
+        fill(Ellipsis, prev)
+        for flat_at, flat_tile, block, starts, start in blocks:
+            add(flat_at, flat_tile, block)
+            reduceat(block, starts, 0, None, cur[start : start + starts.shape[0]])
         add(cur, e, cur)
         prev = cur
+
+
+def _forward_sparse(
+    log_at: NDArray[np.float64],
+    finite: NDArray[np.bool_],
+    emit: NDArray[np.float64],
+    lattice: NDArray[np.float64],
+) -> None:
+    """:func:`_forward` over the possible transitions only (``finite``: log_at > -inf).
+
+    The possible transitions are listed target by target, each target's predecessors in
+    increasing order; a target no state can reach gets one ``-inf`` entry so that every
+    segment of the segmented max is non-empty.
+    """
+    n = log_at.shape[0]
+    listed = finite.copy()
+    listed[~finite.any(axis=1), 0] = True  # log_at is -inf there: the score stays -inf
+    target, source = np.nonzero(listed)  # row-major: grouped by target, sources ascending
+    weights = log_at[target, source]
+    starts = np.searchsorted(target, np.arange(n))
+    scores = np.empty(source.shape[0])
+    add, reduceat = np.add, np.maximum.reduceat
+    prev = lattice[0]
+    for cur, e in zip(lattice[1:], emit[1:], strict=True):
+        prev.take(source, None, scores, "clip")  # indices are in range: no checked copy
+        add(scores, weights, scores)  # delta_i + log a_ij, for every possible (i, j)
+        reduceat(scores, starts, 0, None, cur)
+        add(cur, e, cur)
+        prev = cur
+
+
+def _forward_predecessors(
+    log_at: NDArray[np.float64],
+    emit: NDArray[np.float64],
+    lattice: NDArray[np.float64],
+) -> NDArray[np.intp]:
+    """:func:`_forward` for small models, also returning the best predecessors ``psi``.
+
+    Each step: one (N, N) add of the previous scores to the transposed transitions, one
+    argmax per row (the lowest predecessor among ties), and a gather of the winning
+    scores plus the emissions.
+    """
+    n = log_at.shape[0]
+    psi = np.empty(lattice.shape, dtype=np.intp)
+    buf = _aligned_empty((n, n))
+    offsets = np.arange(0, n * n, n, dtype=np.intp)  # flat index of each row's start
+    flat_index = np.empty(n, dtype=np.intp)
+    add, argmax, take = np.add, buf.argmax, buf.reshape(-1).take
+    prev = lattice[0]
+    for best, cur, e in zip(psi[1:], lattice[1:], emit[1:], strict=True):
+        add(log_at, prev, buf)  # buf[j, i] = log a_ij + delta_i
+        argmax(1, best)
+        add(best, offsets, flat_index)
+        take(flat_index, None, cur, "clip")  # indices are in range: no checked copy
+        add(cur, e, cur)
+        prev = cur
+    return psi
+
+
+def _backtrack(
+    log_at: NDArray[np.float64], lattice: NDArray[np.float64], last: int
+) -> NDArray[np.int64]:
+    """Best path ending in state ``last``, one predecessor argmax per position."""
+    into = list(log_at)  # into[j] = log a_·j
+    scores = np.empty(log_at.shape[0])
+    add, argmax = np.add, scores.argmax
+    state = last
+    path = [state]
+    append = path.append
+    for row in lattice[-2::-1]:
+        add(row, into[state], scores)  # the sums of the forward pass, bit for bit
+        state = int(argmax())
+        append(state)
+    path.reverse()
+    return np.array(path, dtype=np.int64)
+
+
+def _follow(psi: NDArray[np.intp], last: int) -> NDArray[np.int64]:
+    """The path through the stored best predecessors ending in state ``last``."""
+    states = np.empty(psi.shape[0], dtype=np.int64)
+    state = last
+    item = psi.item
+    for t in range(psi.shape[0] - 1, 0, -1):
+        states[t] = state
+        state = item(t, state)
+    states[0] = state
+    return states
 
 
 def emission_decode(
