@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Final
 
 import numpy as np
 
+from behavior_hmm.errors import ConfigError
 from behavior_hmm.evaluate._baselines import BehaviorCloning
+from behavior_hmm.evaluate._executor import Executor, SerialExecutor
 from behavior_hmm.evaluate._protocol import evaluate_model
 
 Progress = Callable[[int, int], None]
@@ -42,95 +44,193 @@ def run_simple_experiment(
     configs: tuple[tuple[str, tuple[str, ...], float], ...] = SIMPLE_CONFIGS,
     sblm_params: Mapping[str, Any] | None = None,
     progress: Progress | None = None,
+    executor: Executor | None = None,
+    seeds: int = 1,
 ) -> dict[str, Any]:
     """Collect the default datasets, train SBLM and BC per config, evaluate on the test starts.
 
     ``sblm_params`` are SBLM constructor parameters (e.g. ``preset_params("thesis",
-    "SBLM")``) applied to every model; the default is the SBLM's defaults.
+    "SBLM")``) applied to every model; the default is the SBLM's defaults. Each config
+    of each seed is one task of ``executor`` (default: this process); with ``seeds`` K
+    > 1, seeds ``seed .. seed + K - 1`` each train their own models and every row also
+    gets the mean and 95 % interval over them (:func:`over_seeds`).
 
     Returns
     -------
     dict
-        ``rows``: one summary per config (SBLM, BC, thesis figure, zero floor, timings);
+        ``rows``: one summary per config (SBLM, BC, thesis figure, zero floor);
         ``evaluations``: the full evaluation dicts; ``figure_starts``: the scores from
         the :data:`FIGURE_STARTS`; ``figures``: generated and demonstrated series per
         config (:func:`_figure_series`), ``"test_starts"`` (every test start, thesis
-        appendix B.1) and ``"thesis_starts"`` (figures 6.8 and 6.9).
+        appendix B.1) and ``"thesis_starts"`` (figures 6.8 and 6.9); ``timings``
+        (training seconds, kept out of results.json); with seeds, ``seeds`` and
+        ``over_seeds``. Everything but the timings is the same whatever the executor.
     """
-    from behavior_hmm.models import SBLM
-    from behavior_hmm.teach import collect, test_starts
 
-    datasets = {b: collect(b, sim=sim, seed=seed) for b in sorted({c[0] for c in configs})}
-    rows: list[dict[str, Any]] = []
-    evaluations: list[dict[str, Any]] = []
-    figures: dict[str, list[dict[str, Any]]] = {"test_starts": [], "thesis_starts": []}
-    figure_starts: list[dict[str, Any]] = []
-    for i, (behavior, inputs, thesis) in enumerate(configs):
-        dataset = datasets[behavior]
-        t0 = time.perf_counter()
-        model = SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed})
-        model.fit(dataset)
-        train_s = time.perf_counter() - t0
-        bc = BehaviorCloning(inputs=inputs, random_state=seed).fit(dataset)
-        starts = test_starts(behavior)
-        result = evaluate_model(
-            model,
-            starts,
-            sim=sim,
-            seed=seed,
-            noise=noise,
-            baselines={"bc": bc},
-            keep_traces=True,
+    run = executor or SerialExecutor()
+    seed_list = [seed + k for k in range(check_seeds(seeds))]
+    behaviors = sorted({c[0] for c in configs})
+    data_tasks = [(b, sim, s) for s in seed_list for b in behaviors]
+    total = len(data_tasks) + len(seed_list) * len(configs)
+
+    def collected(done: int, _: int) -> None:
+        if progress is not None:
+            progress(done, total)
+
+    datasets = dict(zip(data_tasks, run.map(_collect_task, data_tasks, collected), strict=True))
+    tasks = [
+        (behavior, inputs, thesis, datasets[(behavior, sim, s)], sim, s, noise, sblm_params)
+        for s in seed_list
+        for behavior, inputs, thesis in configs
+    ]
+
+    def trained(done: int, _: int) -> None:
+        if progress is not None:
+            progress(len(data_tasks) + done, total)
+
+    outcomes = run.map(_simple_config_task, tasks, trained)
+    per_seed: list[dict[str, Any]] = []
+    for k, s in enumerate(seed_list):
+        mine = outcomes[k * len(configs) : (k + 1) * len(configs)]
+        figures: dict[str, list[dict[str, Any]]] = {"test_starts": [], "thesis_starts": []}
+        for outcome in mine:
+            figures["test_starts"].append(outcome["test_series"])
+            if outcome["thesis_series"] is not None:
+                figures["thesis_starts"].append(outcome["thesis_series"])
+        per_seed.append(
+            {
+                "sim": sim,
+                "seed": s,
+                "noise": noise,
+                "rows": [o["row"] for o in mine],
+                "evaluations": [o["evaluation"] for o in mine],
+                "figure_starts": [f for o in mine for f in o["figure_starts"]],
+                "figures": figures,
+                "timings": {"train_s": [o["train_s"] for o in mine]},
+            }
         )
-        traces = result.pop("_traces")
-        figures["test_starts"].append(_figure_series(traces, behavior, inputs, result["cases"]))
-        if FIGURE_STARTS.get(behavior):
-            extra = evaluate_model(
-                model, FIGURE_STARTS[behavior], sim=sim, seed=seed, noise=noise, keep_traces=True
-            )
-            series = _figure_series(extra.pop("_traces"), behavior, inputs, extra["cases"])
-            figures["thesis_starts"].append(series)
-            figure_starts.extend(
-                {
-                    "behavior": behavior,
-                    "inputs": list(inputs),
-                    "start": case["start"],
-                    "success_rate": case["success_rate"],
-                    "goal_reached": case["goal_reached"],
-                }
-                for case in extra["cases"]
-            )
-        evaluations.append(result)
-        base = result["baselines"]["bc"]
-        rows.append(
+    result = per_seed[0]
+    if len(seed_list) > 1:
+        result = {
+            **result,
+            "seeds": seed_list,
+            "over_seeds": over_seeds(
+                [r["rows"] for r in per_seed],
+                ("sblm", "sblm_goal_reached", "bc", "bc_goal_reached", "zero_floor"),
+            ),
+            "per_seed_rows": [r["rows"] for r in per_seed],
+            "timings": {"train_s": [r["timings"]["train_s"] for r in per_seed]},
+        }
+    return result
+
+
+def _collect_task(task: tuple[str, str, int]) -> Any:
+    """One behavior's default demonstrations (an executor task)."""
+    from behavior_hmm.teach import collect
+
+    behavior, sim, seed = task
+    return collect(behavior, sim=sim, seed=seed)
+
+
+def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
+    """Train an SBLM and BC on one config's data and evaluate them (an executor task)."""
+    from behavior_hmm.models import SBLM
+    from behavior_hmm.teach import test_starts
+
+    behavior, inputs, thesis, dataset, sim, seed, noise, sblm_params = task
+    t0 = time.perf_counter()
+    model = SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed})
+    model.fit(dataset)
+    train_s = time.perf_counter() - t0
+    bc = BehaviorCloning(inputs=inputs, random_state=seed).fit(dataset)
+    result = evaluate_model(
+        model,
+        test_starts(behavior),
+        sim=sim,
+        seed=seed,
+        noise=noise,
+        baselines={"bc": bc},
+        keep_traces=True,
+    )
+    traces = result.pop("_traces")
+    test_series = _figure_series(traces, behavior, inputs, result["cases"])
+    thesis_series = None
+    figure_starts: list[dict[str, Any]] = []
+    if FIGURE_STARTS.get(behavior):
+        extra = evaluate_model(
+            model, FIGURE_STARTS[behavior], sim=sim, seed=seed, noise=noise, keep_traces=True
+        )
+        thesis_series = _figure_series(extra.pop("_traces"), behavior, inputs, extra["cases"])
+        figure_starts = [
             {
                 "behavior": behavior,
                 "inputs": list(inputs),
-                "thesis": thesis,
-                "sblm": result["success_rate_mean"],
-                "sblm_goal_reached": result["goal_reached"],
-                "bc": base["success_rate_mean"],
-                "bc_goal_reached": base["goal_reached"],
-                "zero_floor": result["zero_floor_mean"],
-                "sblm_motor_max": result["success_rate_motor_max_mean"],
-                "zero_floor_motor_max": result["zero_floor_motor_max_mean"],
-                "n": result["n"],
-                "primitives": int(model.primitives_.n_categories_),
-                "observations": int(model.observations_.n_categories_),
-                "train_s": train_s,
+                "start": case["start"],
+                "success_rate": case["success_rate"],
+                "goal_reached": case["goal_reached"],
             }
-        )
-        if progress is not None:
-            progress(i + 1, len(configs))
-    return {
-        "sim": sim,
-        "seed": seed,
-        "noise": noise,
-        "rows": rows,
-        "evaluations": evaluations,
-        "figure_starts": figure_starts,
-        "figures": figures,
+            for case in extra["cases"]
+        ]
+    base = result["baselines"]["bc"]
+    row = {
+        "behavior": behavior,
+        "inputs": list(inputs),
+        "thesis": thesis,
+        "sblm": result["success_rate_mean"],
+        "sblm_goal_reached": result["goal_reached"],
+        "bc": base["success_rate_mean"],
+        "bc_goal_reached": base["goal_reached"],
+        "zero_floor": result["zero_floor_mean"],
+        "sblm_motor_max": result["success_rate_motor_max_mean"],
+        "zero_floor_motor_max": result["zero_floor_motor_max_mean"],
+        "n": result["n"],
+        "primitives": int(model.primitives_.n_categories_),
+        "observations": int(model.observations_.n_categories_),
     }
+    return {
+        "row": row,
+        "evaluation": result,
+        "test_series": test_series,
+        "thesis_series": thesis_series,
+        "figure_starts": figure_starts,
+        "train_s": train_s,
+    }
+
+
+def check_seeds(seeds: int) -> int:
+    """Refuse a seed count below 1 (``--seeds``)."""
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1000:
+        raise ConfigError(f"--seeds must be an integer in [1, 1000], got {seeds!r}")
+    return seeds
+
+
+def over_seeds(
+    rows_per_seed: Sequence[Sequence[Mapping[str, Any]]], keys: Sequence[str]
+) -> list[dict[str, Any]]:
+    """Mean and 95 % interval (Student's t) of each row's ``keys`` over the seeds.
+
+    Returns one dict per row: ``{key: {"mean", "ci95", "min", "max", "values"}}``; the
+    interval is ``mean ± t(0.975, K-1) · sd / sqrt(K)``.
+    """
+    from scipy import stats
+
+    k = len(rows_per_seed)
+    t = float(stats.t.ppf(0.975, k - 1)) if k > 1 else 0.0
+    out = []
+    for j in range(len(rows_per_seed[0])):
+        summary: dict[str, Any] = {}
+        for key in keys:
+            values = np.array([float(rows[j][key]) for rows in rows_per_seed])
+            sd = float(values.std(ddof=1)) if k > 1 else 0.0
+            summary[key] = {
+                "mean": float(values.mean()),
+                "ci95": t * sd / np.sqrt(k),
+                "min": float(values.min()),
+                "max": float(values.max()),
+                "values": values.tolist(),
+            }
+        out.append(summary)
+    return out
 
 
 def _figure_series(
@@ -177,6 +277,8 @@ def run_complex_experiment(
     sblm_params: Mapping[str, Any] | None = None,
     cblm_params: Mapping[str, Any] | None = None,
     progress: Progress | None = None,
+    executor: Executor | None = None,
+    seeds: int = 1,
 ) -> dict[str, Any]:
     """Thesis table 6.5 and beyond: turn & approach, position, and a nested composition.
 
@@ -185,69 +287,166 @@ def run_complex_experiment(
     (thesis table 6.5, with a behavior-cloning baseline trained on the same complex
     demonstrations), *position* over {turn, approach, retreat} on the 30 position test
     starts, and *position* again as a CBLM whose components are the turn & approach CBLM
-    and retreat (a CBLM inside a CBLM).
+    and retreat (a CBLM inside a CBLM). Collecting, training the components and the four
+    evaluations are tasks of ``executor``; with ``seeds`` K > 1 each seed trains its own
+    models and the turn & approach row gets its mean and 95 % interval (``over_seeds``).
     """
-    from behavior_hmm.data import Dataset
-    from behavior_hmm.models import CBLM, SBLM
-    from behavior_hmm.teach import collect, test_starts
-
-    steps = 6
-    done = 0
-
-    def tick() -> None:
-        nonlocal done
-        done += 1
-        if progress is not None:
-            progress(done, steps)
-
+    run = executor or SerialExecutor()
+    seed_list = [seed + k for k in range(check_seeds(seeds))]
     behaviors = ("turn", "approach", "retreat", "turn-approach", "position")
-    data = {b: collect(b, sim=sim, seed=seed) for b in behaviors}
-    tick()
-    own = dict(sblm_params or {})
+    data_tasks = [(b, sim, s) for s in seed_list for b in behaviors]
+    parts = ("turn_approach", "position", "nested_position", "retreat")
+    total = len(data_tasks) + 3 * len(seed_list) + len(parts) * len(seed_list)
+    offset = 0
 
-    def simple(inputs: tuple[str, ...], behavior: str) -> Any:
-        return SBLM(**{**own, "inputs": inputs, "random_state": seed}).fit(data[behavior])
+    def advance(done: int, _: int) -> None:
+        if progress is not None:
+            progress(offset + done, total)
 
-    def complex_(components: list[Any], dataset: Any) -> Any:
-        params = {**dict(cblm_params or {}), "inputs": ("distance", "angle")}
-        return CBLM(components, **params).fit(dataset)
-
-    turn = simple(("angle",), "turn")
-    approach = simple(("distance", "angle"), "approach")
-    retreat = simple(("distance", "angle"), "retreat")
-    tick()
-    t0 = time.perf_counter()
-    ta = complex_([turn, approach], data["turn-approach"])
-    train_ta_s = time.perf_counter() - t0
-    bc = BehaviorCloning(inputs=("distance", "angle"), random_state=seed).fit(data["turn-approach"])
-    ta_starts = test_starts("turn-approach")
-    ta_result = evaluate_model(
-        ta, ta_starts, sim=sim, seed=seed, noise=noise, baselines={"bc": bc}, keep_traces=True
-    )
-    traces = ta_result.pop("_traces")
-    figure = []
-    for (trace, demo), case in zip(traces["model"], ta_result["cases"], strict=True):
-        figure.append(
+    datasets = dict(zip(data_tasks, run.map(_collect_task, data_tasks, advance), strict=True))
+    offset += len(data_tasks)
+    component_tasks = [
+        (inputs, datasets[(behavior, sim, s)], s, sblm_params)
+        for s in seed_list
+        for behavior, inputs in _COMPONENTS
+    ]
+    trained = run.map(_component_task, component_tasks, advance)
+    offset += len(component_tasks)
+    tasks = []
+    for k, s in enumerate(seed_list):
+        turn, approach, retreat = trained[3 * k : 3 * k + 3]
+        data = {b: datasets[(b, sim, s)] for b in behaviors}
+        for part in parts:
+            tasks.append((part, turn, approach, retreat, data, sim, s, noise, cblm_params))
+    outcomes = run.map(_complex_part_task, tasks, advance)
+    per_seed = []
+    for k, s in enumerate(seed_list):
+        mine = dict(zip(parts, outcomes[k * len(parts) : (k + 1) * len(parts)], strict=True))
+        ta = mine["turn_approach"]
+        per_seed.append(
             {
-                "start": trace.start,
-                "success_rate": float(case["success_rate"]),
-                "goal_reached": bool(case["goal_reached"]),
-                "t": np.arange(len(trace)) * 0.016,
-                "angle": trace.reading_array[:, 2],
-                "distance": trace.reading_array[:, 0],
-                "component": list(trace.component),
-                "demo_angle": np.asarray(demo["angle"]),
-                "demo_distance": np.asarray(demo["distance"]),
-                "demo_behavior": list(demo["behavior"]),
+                "sim": sim,
+                "seed": s,
+                "noise": noise,
+                "turn_approach": ta["evaluation"],
+                "turn_approach_observations": ta["observations"],
+                "figure": ta["figure"],
+                "figure_highlight": list(COMPLEX_FIGURE_STARTS),
+                "position": mine["position"]["evaluation"],
+                "nested_position": mine["nested_position"]["evaluation"],
+                "retreat": mine["retreat"]["evaluation"],
+                "timings": {"turn_approach_train_s": ta["train_s"]},
             }
         )
-    tick()
-    position = complex_([turn, approach, retreat], data["position"])
+    result = per_seed[0]
+    if len(seed_list) > 1:
+        rows = [[_complex_row(r)] for r in per_seed]
+        result = {
+            **result,
+            "seeds": seed_list,
+            "over_seeds": over_seeds(
+                rows, ("cblm", "cblm_goal_reached", "bc", "bc_goal_reached", "zero_floor")
+            ),
+            "per_seed_rows": rows,
+            "timings": {
+                "turn_approach_train_s": [r["timings"]["turn_approach_train_s"] for r in per_seed]
+            },
+        }
+    return result
+
+
+#: The components every complex behavior is composed of: (behavior, inputs).
+_COMPONENTS: Final[tuple[tuple[str, tuple[str, ...]], ...]] = (
+    ("turn", ("angle",)),
+    ("approach", ("distance", "angle")),
+    ("retreat", ("distance", "angle")),
+)
+
+
+def _component_task(task: tuple[Any, ...]) -> Any:
+    """One component SBLM (an executor task)."""
+    from behavior_hmm.models import SBLM
+
+    inputs, dataset, seed, sblm_params = task
+    return SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed}).fit(dataset)
+
+
+def _complex_row(result: Mapping[str, Any]) -> dict[str, Any]:
+    """The turn & approach row of one seed (for :func:`over_seeds`)."""
+    ta = result["turn_approach"]
+    return {
+        "cblm": ta["success_rate_mean"],
+        "cblm_goal_reached": ta["goal_reached"],
+        "bc": ta["baselines"]["bc"]["success_rate_mean"],
+        "bc_goal_reached": ta["baselines"]["bc"]["goal_reached"],
+        "zero_floor": ta["zero_floor_mean"],
+    }
+
+
+def _turn_approach(turn: Any, approach: Any, data: Any, cblm_params: Any) -> Any:
+    from behavior_hmm.models import CBLM
+
+    params = {**dict(cblm_params or {}), "inputs": ("distance", "angle")}
+    return CBLM([turn, approach], **params).fit(data["turn-approach"])
+
+
+def _complex_part_task(task: tuple[Any, ...]) -> dict[str, Any]:
+    """One evaluation of the complex experiment (an executor task)."""
+    from behavior_hmm.data import Dataset
+    from behavior_hmm.models import CBLM
+    from behavior_hmm.teach import test_starts
+
+    part, turn, approach, retreat, data, sim, seed, noise, cblm_params = task
+    params = {**dict(cblm_params or {}), "inputs": ("distance", "angle")}
+    if part == "retreat":
+        result = evaluate_model(retreat, test_starts("retreat"), sim=sim, seed=seed)
+        return {"evaluation": result}
+    if part == "turn_approach":
+        t0 = time.perf_counter()
+        ta = _turn_approach(turn, approach, data, cblm_params)
+        train_s = time.perf_counter() - t0
+        bc = BehaviorCloning(inputs=("distance", "angle"), random_state=seed)
+        bc.fit(data["turn-approach"])
+        result = evaluate_model(
+            ta,
+            test_starts("turn-approach"),
+            sim=sim,
+            seed=seed,
+            noise=noise,
+            baselines={"bc": bc},
+            keep_traces=True,
+        )
+        traces = result.pop("_traces")
+        figure = []
+        for (trace, demo), case in zip(traces["model"], result["cases"], strict=True):
+            figure.append(
+                {
+                    "start": trace.start,
+                    "success_rate": float(case["success_rate"]),
+                    "goal_reached": bool(case["goal_reached"]),
+                    "t": np.asarray(trace.t, dtype=float),
+                    "angle": trace.channel("angle"),
+                    "distance": trace.channel("distance"),
+                    "component": list(trace.component),
+                    "demo_angle": np.asarray(demo["angle"]),
+                    "demo_distance": np.asarray(demo["distance"]),
+                    "demo_behavior": list(demo["behavior"]),
+                }
+            )
+        return {
+            "evaluation": result,
+            "figure": figure,
+            "train_s": train_s,
+            "observations": int(ta.observations_.n_categories_),
+        }
     pos_starts = test_starts("position")
-    pos_result = evaluate_model(position, pos_starts, sim=sim, seed=seed, noise=noise)
-    tick()
+    if part == "position":
+        position = CBLM([turn, approach, retreat], **params).fit(data["position"])
+        result = evaluate_model(position, pos_starts, sim=sim, seed=seed, noise=noise)
+        return {"evaluation": _split(result)}
     # A CBLM as a component: relabel the position demonstrations' turn/approach rows as
     # the turn & approach CBLM, and compose it with retreat.
+    ta = _turn_approach(turn, approach, data, cblm_params)
     relabelled = []
     for episode in data["position"].episodes():
         cols = episode.to_dict()
@@ -255,38 +454,25 @@ def run_complex_experiment(
         cols["behavior"] = np.where(tags == "retreat", "retreat", "turn-approach")
         relabelled.append(cols)
     nested_data = Dataset.from_episodes(relabelled, metadata=data["position"].metadata)
-    nested = complex_([ta, retreat], nested_data)
-    nested_result = evaluate_model(nested, pos_starts, sim=sim, seed=seed, noise=noise)
-    tick()
-    retreat_result = evaluate_model(retreat, test_starts("retreat"), sim=sim, seed=seed)
-    tick()
+    nested = CBLM([ta, retreat], **params).fit(nested_data)
+    result = evaluate_model(nested, pos_starts, sim=sim, seed=seed, noise=noise)
+    return {"evaluation": _split(result)}
 
-    def split(result: dict[str, Any]) -> dict[str, Any]:
-        cases = result["cases"]
-        need_approach = [c for c in cases if c["start"]["distance"] > c["goal"]["distance"]]
-        need_retreat = [c for c in cases if c["start"]["distance"] < c["goal"]["distance"]]
-        return {
-            "success_rate_mean": result["success_rate_mean"],
-            "zero_floor_mean": result["zero_floor_mean"],
-            "goal_reached": result["goal_reached"],
-            "n": result["n"],
-            "approach_goal_reached": sum(c["goal_reached"] for c in need_approach),
-            "approach_n": len(need_approach),
-            "retreat_goal_reached": sum(c["goal_reached"] for c in need_retreat),
-            "retreat_n": len(need_retreat),
-            "components_used": sorted({n for c in cases for n in c.get("components", [])}),
-        }
 
+def _split(result: dict[str, Any]) -> dict[str, Any]:
+    """A position evaluation's summary, split into the starts needing approach or retreat."""
+    cases = result["cases"]
+    need_approach = [c for c in cases if c["start"]["distance"] > c["goal"]["distance"]]
+    need_retreat = [c for c in cases if c["start"]["distance"] < c["goal"]["distance"]]
     return {
-        "sim": sim,
-        "seed": seed,
-        "noise": noise,
-        "turn_approach": ta_result,
-        "turn_approach_train_s": train_ta_s,
-        "turn_approach_observations": int(ta.observations_.n_categories_),
-        "figure": figure,
-        "figure_highlight": list(COMPLEX_FIGURE_STARTS),
-        "position": {**split(pos_result), "evaluation": pos_result},
-        "nested_position": {**split(nested_result), "evaluation": nested_result},
-        "retreat": retreat_result,
+        "success_rate_mean": result["success_rate_mean"],
+        "zero_floor_mean": result["zero_floor_mean"],
+        "goal_reached": result["goal_reached"],
+        "n": result["n"],
+        "approach_goal_reached": sum(c["goal_reached"] for c in need_approach),
+        "approach_n": len(need_approach),
+        "retreat_goal_reached": sum(c["goal_reached"] for c in need_retreat),
+        "retreat_n": len(need_retreat),
+        "components_used": sorted({n for c in cases for n in c.get("components", [])}),
+        "evaluation": result,
     }

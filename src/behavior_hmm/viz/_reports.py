@@ -25,12 +25,20 @@ _APPENDIX_FIGURE = {"turn": "B.1", "approach": "B.2"}
 
 
 def write_results_files(out: str | os.PathLike[str], results: Any, table: str) -> Path:
-    """Create the folder ``out`` and write ``results.json`` and ``table.md`` into it (atomic)."""
+    """Create the folder ``out`` and write ``results.json`` and ``table.md`` into it (atomic).
+
+    Wall-clock ``timings`` go to ``timings.json``: results.json holds only what the run
+    computed, so the same seed gives the same bytes whatever executor ran it.
+    """
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(results, indent=1, default=float)
+    content = dict(results)
+    timings = content.pop("timings", None)
+    text = json.dumps(content, indent=1, default=float)
     atomic_write_bytes(folder / "results.json", text.encode())
     atomic_write_bytes(folder / "table.md", table.encode())
+    if timings is not None:
+        atomic_write_bytes(folder / "timings.json", json.dumps(timings, indent=1).encode())
     return folder
 
 
@@ -80,6 +88,34 @@ def write_simple_report(results: dict[str, Any], out_dir: str | os.PathLike[str]
     return table
 
 
+def _spread(summary: dict[str, Any], key: str, digits: int = 1) -> str:
+    """``mean ± ci95`` of one key of an ``over_seeds`` row."""
+    value = summary[key]
+    return f"{value['mean']:.{digits}f} ± {value['ci95']:.{digits}f}"
+
+
+def seeds_table(results: dict[str, Any], labels: list[str], model: str) -> str:
+    """Mean ± 95 % interval over seeds of each row (``results["over_seeds"]``), or ``""``."""
+    over = results.get("over_seeds")
+    if not over:
+        return ""
+    seeds = results["seeds"]
+    lines = [
+        f"Over {len(seeds)} seeds ({seeds[0]}..{seeds[-1]}), mean ± 95 % interval (Student's t):",
+        "",
+        f"| row | {model} % | {model} goals | BC % | BC goals | zero floor % |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    key = model.lower()
+    for label, row in zip(labels, over, strict=True):
+        lines.append(
+            f"| {label} | **{_spread(row, key)}** | {_spread(row, key + '_goal_reached')} "
+            f"| {_spread(row, 'bc')} | {_spread(row, 'bc_goal_reached')} "
+            f"| {_spread(row, 'zero_floor')} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def simple_table(results: dict[str, Any]) -> str:
     """Markdown table of the simple experiment's rows (the preset named in the header)."""
     preset = results.get("preset", "default")
@@ -98,7 +134,10 @@ def simple_table(results: dict[str, Any]) -> str:
             f"| {r['sblm_motor_max']:.1f} ({r['zero_floor_motor_max']:.1f}) "
             f"| {r['primitives']} / {r['observations']} | {_smoothness(ev)} |"
         )
-    return "\n".join(lines) + "\n"
+    labels = [f"{r['behavior']} ({', '.join(r['inputs'])})" for r in results["rows"]]
+    spread = seeds_table(results, labels, "SBLM")
+    head = f"Seed {results.get('seed', 0)}:\n\n" if spread else ""
+    return head + "\n".join(lines) + "\n" + ("\n" + spread if spread else "")
 
 
 def write_complex_report(results: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
@@ -175,12 +214,14 @@ def complex_table(results: dict[str, Any]) -> str:
         f"| {r['zero_floor_mean']:.1f} | | {r['goal_reached']}/{r['n']} |"
     )
     lines.append("")
+    train_s = (results.get("timings") or {}).get("turn_approach_train_s")
+    took = f"{train_s:.1f} s, " if isinstance(train_s, float) else ""
     lines.append(
-        f"Training the turn & approach CBLM from its components: "
-        f"{results['turn_approach_train_s']:.1f} s, "
+        f"Training the turn & approach CBLM from its components: {took}"
         f"{results['turn_approach_observations']} observation categories."
     )
-    return "\n".join(lines) + "\n"
+    spread = seeds_table(results, ["turn & approach (distance, angle)"], "CBLM")
+    return "\n".join(lines) + "\n" + ("\n" + spread if spread else "")
 
 
 def write_robot_report(
