@@ -448,8 +448,11 @@ def check_video(path: Path, backend: str) -> None:
     _video_format(path)
 
 
-def write_video(trace: Any, path: Path, backend: str, robot: Any, title: str = "") -> None:
-    """Render one run's video with ``backend`` (see :func:`check_video`)."""
+def write_video(
+    trace: Any, path: Path, backend: str, robot: Any, title: str = "", teacher: Any = None
+) -> None:
+    """Render one run's video with ``backend`` (see :func:`check_video`); ``teacher``: the
+    teacher's path (n, 3) from the same start, drawn faint by the top-down backend."""
     if backend == "mujoco":
         from behavior_hmm.viz._mujoco_video import render_trace_mujoco
 
@@ -457,4 +460,4 @@ def write_video(trace: Any, path: Path, backend: str, robot: Any, title: str = "
     else:
         from behavior_hmm.viz import render_trace
 
-        render_trace(trace, path, robot=robot, title=title)
+        render_trace(trace, path, robot=robot, title=title, teacher_pose=teacher)

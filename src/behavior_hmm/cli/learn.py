@@ -190,6 +190,10 @@ def generate(
         Path | None,
         typer.Option(help="Plot of the run, in its extension's format (.png, .svg, .pdf)"),
     ] = None,
+    trajectory: Annotated[
+        Path | None,
+        typer.Option(help="Top view of the run (x, y in m), the teacher's path dashed (.png)"),
+    ] = None,
 ) -> None:
     """Perform a learned behavior from a start to a goal in the simulator.
 
@@ -208,8 +212,8 @@ def generate(
     check_noise(noise)
     check_outputs(
         {"MODEL_FILE": model_file},
-        {"-o": out, "--plot": plot, "--video": video},
-        plots=("--plot",),
+        {"-o": out, "--plot": plot, "--video": video, "--trajectory": trajectory},
+        plots=("--plot", "--trajectory"),
     )
     if video is not None:
         check_video(video, video_backend)
@@ -223,23 +227,63 @@ def generate(
     trace = model.generate(robot, start=begin, goal=target, seed=seed, noise=noise or None)
     summary = trace.summary()
     typer.echo(json.dumps(summary, default=float))
+    demo, demo_pose = None, None
+    if plot is not None or trajectory is not None or video is not None:
+        demo, demo_pose = _teacher_run(model, robot, trace, seed)
     with all_or_none():
         if out is not None:
             trace.write(out)
         if plot is not None:
             from behavior_hmm.viz import plot_trace
 
-            plot_trace(trace, plot)
+            plot_trace(trace, plot, reference=demo)
+        if trajectory is not None:
+            from behavior_hmm.viz import plot_trajectory
+
+            base = robot.unwrapped
+            plot_trajectory(
+                trace,
+                reference_pose=demo_pose,
+                body_radius=getattr(base, "body_radius", None),
+                object_radius=getattr(base, "object_radius", None),
+                path=trajectory,
+            )
         if video is not None:
-            write_video(trace, video, video_backend, robot, title=model_file.stem)
+            write_video(
+                trace, video, video_backend, robot, title=model_file.stem, teacher=demo_pose
+            )
     if out is not None:
         log.info("trace: %s", out)
     if plot is not None:
         log.info("plot: %s", plot)
+    if trajectory is not None:
+        log.info("trajectory: %s", trajectory)
     if video is not None:
         log.info("video: %s", video)
     if not trace.goal_reached:
         raise typer.Exit(code=1)
+
+
+def _teacher_run(model: Any, robot: Any, trace: Any, seed: int) -> tuple[Any, Any]:
+    """The teacher's demonstration from the run's start to its goal, and its path.
+
+    ``(None, None)`` when the teacher cannot demonstrate it (a behavior it does not know,
+    or a goal it has no phase for): the plots then show the run alone.
+    """
+    from behavior_hmm.errors import BehaviorHMMError
+    from behavior_hmm.evaluate import reference_demonstration
+    from behavior_hmm.viz import replay_pose
+
+    goal = {k: v for k, v in trace.goal.items() if k == "distance"}
+    try:
+        demo = reference_demonstration(
+            str(model.behavior_), trace.start, goal, robot, seed=seed, noise=0.0
+        )
+    except BehaviorHMMError as err:
+        log.debug("no teacher's run to overlay: %s", err)
+        return None, None
+    pose = replay_pose(robot, trace.start, demo, seed=seed)
+    return demo, (pose if len(pose) else None)
 
 
 # ----------------------------------------------------------------------- evaluate
@@ -340,8 +384,9 @@ def evaluate(
             push=pushed,
         )
     traces = result.pop("_traces", None)
+    written: dict[int, Path] = {}
     if videos is not None and traces:
-        _write_videos(videos, traces["model"], video_backend, robot, str(model.behavior_))
+        written = _write_videos(videos, traces["model"], video_backend, robot, str(model.behavior_))
     text = json.dumps(result, indent=1, default=float)
     with all_or_none():
         if json_out is not None:
@@ -349,7 +394,7 @@ def evaluate(
         if report is not None:
             from behavior_hmm.viz import write_evaluation_report
 
-            write_evaluation_report(result, traces, report)
+            write_evaluation_report(result, traces, report, videos=written or None)
     if report is not None:
         log.info("report: %s", report)
     _print_evaluation(result)
@@ -357,8 +402,12 @@ def evaluate(
 
 def _write_videos(
     folder: Path, runs: list[tuple[Any, Any]], backend: str, robot: Any, behavior: str
-) -> None:
-    """One video per case, ``case_NN.mp4``; a case refused before any motion has none."""
+) -> dict[int, Path]:
+    """One video per case, ``case_NN.mp4``; a case refused before any motion has none.
+
+    Returns the videos written, by case index (for the report's links).
+    """
+    written: dict[int, Path] = {}
     folder.mkdir(parents=True, exist_ok=True)
     if robot is not None:
         scene = robot
@@ -371,10 +420,10 @@ def _write_videos(
         if not len(trace.pose):  # refused before any motion: nothing to show
             log.warning("no video of case %d (%s): %s", i, start, trace.reason)
             continue
-        write_video(
-            trace, folder / f"case_{i:02d}.mp4", backend, scene, title=f"{behavior} from {start}"
-        )
+        written[i] = folder / f"case_{i:02d}.mp4"
+        write_video(trace, written[i], backend, scene, title=f"{behavior} from {start}")
     log.info("videos: %s/case_00.mp4 ... case_%02d.mp4", folder, len(runs) - 1)
+    return written
 
 
 def _check_cases(

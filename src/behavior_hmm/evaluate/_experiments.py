@@ -70,7 +70,8 @@ def run_simple_experiment(
     run = executor or SerialExecutor()
     seed_list = [seed + k for k in range(check_seeds(seeds))]
     behaviors = sorted({c[0] for c in configs})
-    data_tasks = [(b, sim, s) for s in seed_list for b in behaviors]
+    # demonstrations are recorded without sensor noise: the same for every seed
+    data_tasks = [(b, sim, seed) for b in behaviors]
     total = len(data_tasks) + len(seed_list) * len(configs)
 
     def collected(done: int, _: int) -> None:
@@ -79,7 +80,7 @@ def run_simple_experiment(
 
     datasets = dict(zip(data_tasks, run.map(_collect_task, data_tasks, collected), strict=True))
     tasks = [
-        (behavior, inputs, thesis, datasets[(behavior, sim, s)], sim, s, noise, sblm_params)
+        (behavior, inputs, thesis, datasets[(behavior, sim, seed)], sim, s, noise, sblm_params)
         for s in seed_list
         for behavior, inputs, thesis in configs
     ]
@@ -294,7 +295,8 @@ def run_complex_experiment(
     run = executor or SerialExecutor()
     seed_list = [seed + k for k in range(check_seeds(seeds))]
     behaviors = ("turn", "approach", "retreat", "turn-approach", "position")
-    data_tasks = [(b, sim, s) for s in seed_list for b in behaviors]
+    # demonstrations are recorded without sensor noise: the same for every seed
+    data_tasks = [(b, sim, seed) for b in behaviors]
     parts = ("turn_approach", "position", "nested_position", "retreat")
     total = len(data_tasks) + 3 * len(seed_list) + len(parts) * len(seed_list)
     offset = 0
@@ -306,7 +308,7 @@ def run_complex_experiment(
     datasets = dict(zip(data_tasks, run.map(_collect_task, data_tasks, advance), strict=True))
     offset += len(data_tasks)
     component_tasks = [
-        (inputs, datasets[(behavior, sim, s)], s, sblm_params)
+        (inputs, datasets[(behavior, sim, seed)], s, sblm_params)
         for s in seed_list
         for behavior, inputs in _COMPONENTS
     ]
@@ -315,7 +317,7 @@ def run_complex_experiment(
     tasks = []
     for k, s in enumerate(seed_list):
         turn, approach, retreat = trained[3 * k : 3 * k + 3]
-        data = {b: datasets[(b, sim, s)] for b in behaviors}
+        data = {b: datasets[(b, sim, seed)] for b in behaviors}
         for part in parts:
             tasks.append((part, turn, approach, retreat, data, sim, s, noise, cblm_params))
     outcomes = run.map(_complex_part_task, tasks, advance)

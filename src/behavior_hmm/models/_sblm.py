@@ -465,7 +465,7 @@ class SBLM(LearnedBehavior):
             if float(gaps.min()) > slack:
                 unit = "deg" if channel == "angle" else "m"
                 digits = 0 if channel == "angle" else 2
-                low, high = float(ends[0]), float(ends[-1])
+                low, high = (round(float(e), digits) + 0.0 for e in (ends[0], ends[-1]))
                 where = f"{low:.{digits}f}"
                 if high - low > slack:
                     where += f" to {high:.{digits}f}"
