@@ -304,7 +304,8 @@ def evaluate(
     seed: SeedOption = 0,
     noise: NoiseOption = 0.0,
     baseline: Annotated[
-        list[str] | None, typer.Option(help="Baselines to run beside the model: bc")
+        list[str] | None,
+        typer.Option(help="Baselines to run beside the model: bc, bc-strong (repeatable)"),
     ] = None,
     data: Annotated[
         Path | None, typer.Option(help="Training data for baselines (default: the model's)")
@@ -468,20 +469,22 @@ def _push(text: str) -> dict[str, float]:
 def _baselines(names: list[str], model: Any, data: Path | None, seed: int) -> dict[str, Any]:
     if not names:
         return {}
-    unknown = [n for n in names if n != "bc"]
-    if unknown:
-        raise ConfigError(f"unknown baseline '{unknown[0]}'; available: bc")
     from behavior_hmm import data as bdata
-    from behavior_hmm.evaluate import BehaviorCloning
+    from behavior_hmm.evaluate._baselines import BASELINES, fit_baselines
 
+    unknown = [n for n in names if n not in BASELINES]
+    if unknown:
+        raise ConfigError(f"unknown baseline '{unknown[0]}'; available: {', '.join(BASELINES)}")
     source = data or (Path(model.train_data_) if getattr(model, "train_data_", None) else None)
     if source is None:
-        raise ConfigError("--baseline bc needs the training data: pass --data DATA.parquet")
+        raise ConfigError(
+            f"--baseline {names[0]} needs the training data: pass --data DATA.parquet"
+        )
     try:
         dataset = bdata.read(source)
     except DatasetError as err:
         raise DatasetError(f"baseline training data: {err}") from None
-    return {"bc": BehaviorCloning(inputs=model.inputs_, random_state=seed).fit(dataset)}
+    return fit_baselines(model.inputs_, dataset, seed, list(dict.fromkeys(names)))
 
 
 def _print_evaluation(result: dict[str, Any]) -> None:

@@ -9,7 +9,7 @@ from typing import Any, Final
 import numpy as np
 
 from behavior_hmm.errors import ConfigError
-from behavior_hmm.evaluate._baselines import BehaviorCloning
+from behavior_hmm.evaluate._baselines import BASELINES, baseline_columns, fit_baselines
 from behavior_hmm.evaluate._executor import Executor, SerialExecutor
 from behavior_hmm.evaluate._protocol import evaluate_model
 
@@ -117,7 +117,7 @@ def run_simple_experiment(
             "seeds": seed_list,
             "over_seeds": over_seeds(
                 [r["rows"] for r in per_seed],
-                ("sblm", "sblm_goal_reached", "bc", "bc_goal_reached", "zero_floor"),
+                ("sblm", "sblm_goal_reached", *BASELINE_KEYS, "zero_floor"),
             ),
             "per_seed_rows": [r["rows"] for r in per_seed],
             "timings": {"train_s": [r["timings"]["train_s"] for r in per_seed]},
@@ -143,14 +143,14 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
     model = SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed})
     model.fit(dataset)
     train_s = time.perf_counter() - t0
-    bc = BehaviorCloning(inputs=inputs, random_state=seed).fit(dataset)
+    baselines = fit_baselines(inputs, dataset, seed)
     result = evaluate_model(
         model,
         test_starts(behavior),
         sim=sim,
         seed=seed,
         noise=noise,
-        baselines={"bc": bc},
+        baselines=baselines,
         keep_traces=True,
     )
     traces = result.pop("_traces")
@@ -172,15 +172,13 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
             }
             for case in extra["cases"]
         ]
-    base = result["baselines"]["bc"]
     row = {
         "behavior": behavior,
         "inputs": list(inputs),
         "thesis": thesis,
         "sblm": result["success_rate_mean"],
         "sblm_goal_reached": result["goal_reached"],
-        "bc": base["success_rate_mean"],
-        "bc_goal_reached": base["goal_reached"],
+        **baseline_columns(result),
         "zero_floor": result["zero_floor_mean"],
         "sblm_motor_max": result["success_rate_motor_max_mean"],
         "zero_floor_motor_max": result["zero_floor_motor_max_mean"],
@@ -196,6 +194,12 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
         "figure_starts": figure_starts,
         "train_s": train_s,
     }
+
+
+#: Row keys of the baselines (``bc``, ``bc_goal_reached``, ``bc_strong``, ...).
+BASELINE_KEYS: Final[tuple[str, ...]] = tuple(
+    f"{name.replace('-', '_')}{suffix}" for name in BASELINES for suffix in ("", "_goal_reached")
+)
 
 
 def check_seeds(seeds: int) -> int:
@@ -290,7 +294,8 @@ def run_complex_experiment(
     starts, and *position* again as a CBLM whose components are the turn & approach CBLM
     and retreat (a CBLM inside a CBLM). Collecting, training the components and the four
     evaluations are tasks of ``executor``; with ``seeds`` K > 1 each seed trains its own
-    models and the turn & approach row gets its mean and 95 % interval (``over_seeds``).
+    components and turn & approach, whose row gets its mean and 95 % interval
+    (``over_seeds``); position, nesting and retreat are run for the first seed.
     """
     run = executor or SerialExecutor()
     seed_list = [seed + k for k in range(check_seeds(seeds))]
@@ -298,7 +303,7 @@ def run_complex_experiment(
     # demonstrations are recorded without sensor noise: the same for every seed
     data_tasks = [(b, sim, seed) for b in behaviors]
     parts = ("turn_approach", "position", "nested_position", "retreat")
-    total = len(data_tasks) + 3 * len(seed_list) + len(parts) * len(seed_list)
+    total = len(data_tasks) + 3 * len(seed_list) + len(parts) + len(seed_list) - 1
     offset = 0
 
     def advance(done: int, _: int) -> None:
@@ -314,32 +319,37 @@ def run_complex_experiment(
     ]
     trained = run.map(_component_task, component_tasks, advance)
     offset += len(component_tasks)
-    tasks = []
+    # every part for the first seed; the other seeds repeat the headline row (turn &
+    # approach), which the interval over seeds is reported for
+    tasks, owners = [], []
     for k, s in enumerate(seed_list):
         turn, approach, retreat = trained[3 * k : 3 * k + 3]
         data = {b: datasets[(b, sim, seed)] for b in behaviors}
-        for part in parts:
+        for part in parts if k == 0 else parts[:1]:
             tasks.append((part, turn, approach, retreat, data, sim, s, noise, cblm_params))
+            owners.append((k, part))
     outcomes = run.map(_complex_part_task, tasks, advance)
+    mine_by_seed: list[dict[str, Any]] = [{} for _ in seed_list]
+    for (k, part), outcome in zip(owners, outcomes, strict=True):
+        mine_by_seed[k][part] = outcome
     per_seed = []
     for k, s in enumerate(seed_list):
-        mine = dict(zip(parts, outcomes[k * len(parts) : (k + 1) * len(parts)], strict=True))
+        mine = mine_by_seed[k]
         ta = mine["turn_approach"]
-        per_seed.append(
-            {
-                "sim": sim,
-                "seed": s,
-                "noise": noise,
-                "turn_approach": ta["evaluation"],
-                "turn_approach_observations": ta["observations"],
-                "figure": ta["figure"],
-                "figure_highlight": list(COMPLEX_FIGURE_STARTS),
-                "position": mine["position"]["evaluation"],
-                "nested_position": mine["nested_position"]["evaluation"],
-                "retreat": mine["retreat"]["evaluation"],
-                "timings": {"turn_approach_train_s": ta["train_s"]},
-            }
-        )
+        entry = {
+            "sim": sim,
+            "seed": s,
+            "noise": noise,
+            "turn_approach": ta["evaluation"],
+            "turn_approach_observations": ta["observations"],
+            "figure": ta["figure"],
+            "figure_highlight": list(COMPLEX_FIGURE_STARTS),
+            "timings": {"turn_approach_train_s": ta["train_s"]},
+        }
+        for part in parts[1:]:
+            if part in mine:
+                entry[part] = mine[part]["evaluation"]
+        per_seed.append(entry)
     result = per_seed[0]
     if len(seed_list) > 1:
         rows = [[_complex_row(r)] for r in per_seed]
@@ -347,7 +357,7 @@ def run_complex_experiment(
             **result,
             "seeds": seed_list,
             "over_seeds": over_seeds(
-                rows, ("cblm", "cblm_goal_reached", "bc", "bc_goal_reached", "zero_floor")
+                rows, ("cblm", "cblm_goal_reached", *BASELINE_KEYS, "zero_floor")
             ),
             "per_seed_rows": rows,
             "timings": {
@@ -379,8 +389,7 @@ def _complex_row(result: Mapping[str, Any]) -> dict[str, Any]:
     return {
         "cblm": ta["success_rate_mean"],
         "cblm_goal_reached": ta["goal_reached"],
-        "bc": ta["baselines"]["bc"]["success_rate_mean"],
-        "bc_goal_reached": ta["baselines"]["bc"]["goal_reached"],
+        **baseline_columns(ta),
         "zero_floor": ta["zero_floor_mean"],
     }
 
@@ -407,15 +416,14 @@ def _complex_part_task(task: tuple[Any, ...]) -> dict[str, Any]:
         t0 = time.perf_counter()
         ta = _turn_approach(turn, approach, data, cblm_params)
         train_s = time.perf_counter() - t0
-        bc = BehaviorCloning(inputs=("distance", "angle"), random_state=seed)
-        bc.fit(data["turn-approach"])
+        baselines = fit_baselines(("distance", "angle"), data["turn-approach"], seed)
         result = evaluate_model(
             ta,
             test_starts("turn-approach"),
             sim=sim,
             seed=seed,
             noise=noise,
-            baselines={"bc": bc},
+            baselines=baselines,
             keep_traces=True,
         )
         traces = result.pop("_traces")

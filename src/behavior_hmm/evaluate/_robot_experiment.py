@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Mapping
 from typing import Any, Final
 
-from behavior_hmm.evaluate._baselines import BehaviorCloning
+from behavior_hmm.evaluate._baselines import baseline_columns, fit_baselines
 from behavior_hmm.evaluate._protocol import evaluate_model
 
 Progress = Callable[[int, int], None]
@@ -88,7 +88,7 @@ def run_robot_experiment(
     rows: list[dict[str, Any]] = []
     evaluations: list[dict[str, Any]] = []
     for task, behavior, inputs in ROBOT_TASKS:
-        bc = BehaviorCloning(inputs=inputs, random_state=seed).fit(data[behavior])
+        baselines = fit_baselines(inputs, data[behavior], seed)
         starts = scaled_starts(test_starts(behavior), env)
         result = evaluate_model(
             models[behavior],
@@ -96,11 +96,10 @@ def run_robot_experiment(
             sim=None,
             env=env,
             seed=seed,
-            baselines={"bc": bc},
+            baselines=baselines,
             keep_traces=True,
         )
         evaluations.append(result)
-        base = result["baselines"]["bc"]
         rows.append(
             {
                 "task": task,
@@ -109,8 +108,7 @@ def run_robot_experiment(
                 "model": result["kind"],
                 "success_rate": result["success_rate_mean"],
                 "goal_reached": result["goal_reached"],
-                "bc": base["success_rate_mean"],
-                "bc_goal_reached": base["goal_reached"],
+                **baseline_columns(result),
                 "zero_floor": result["zero_floor_mean"],
                 "n": result["n"],
                 "switches_max": result["switches_max"],
@@ -136,13 +134,14 @@ def robot_table(result: Mapping[str, Any]) -> str:
         f"Robot: `{result['env']}` (control period {result['control_period'] * 1000:g} ms; "
         f"test starts scaled by {result['start_scale'] or 'nothing'})",
         "",
-        "| task | model | success % | goal reached | BC % (goals) | all-zero floor % |",
-        "| --- | --- | --- | --- | --- | --- |",
+        "| task | model | success % | goal reached | BC % (goals) | BC-strong % (goals) "
+        "| all-zero floor % |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
     ]
     for row in result["rows"]:
         lines.append(
             f"| {row['task']} | {row['model']} | {row['success_rate']:.1f} | "
             f"{row['goal_reached']}/{row['n']} | {row['bc']:.1f} ({row['bc_goal_reached']}) | "
-            f"{row['zero_floor']:.1f} |"
+            f"{row['bc_strong']:.1f} ({row['bc_strong_goal_reached']}) | {row['zero_floor']:.1f} |"
         )
     return "\n".join(lines) + "\n"

@@ -13,10 +13,17 @@ the batch's samples (thesis §3.4.2.1); the update is the generalized delta
 rule with momentum, ``dw(n) = -lr * dE/dw + momentum * dw(n-1)``. With one
 sample per step this is exactly the thesis's incremental training.
 
+``optimizer="adam"`` trains with Adam instead (Kingma & Ba 2015): the gradient
+of a batch is the *mean* over its samples, ``m`` and ``v`` are exponential
+averages of it and of its square (``beta1``, ``beta2``), and each step moves
+the weights by ``-lr * m_hat / (sqrt(v_hat) + epsilon)`` with the bias-corrected
+``m_hat = m / (1 - beta1^t)``, ``v_hat = v / (1 - beta2^t)``, ``t`` counting the
+slot's own steps. Stochastic gradient descent with momentum stays the default.
+
 Slots never interact: the arithmetic of a slot only reads that slot's rows, and
 a slot with no sample in a step (``active`` false) keeps its weights and its
-momentum unchanged, so training a slot inside a stack gives the same weights as
-training it alone (tested).
+momentum (or its Adam moments and step count) unchanged, so training a slot
+inside a stack gives the same weights as training it alone (tested).
 """
 
 from __future__ import annotations
@@ -169,8 +176,12 @@ def train_stack(
     rngs: Sequence[np.random.Generator],
     early_stopping: bool,
     patience: int | None,
+    optimizer: str = "sgd",
+    beta1: float = 0.9,
+    beta2: float = 0.999,
+    epsilon: float = 1e-8,
 ) -> TrainResult:
-    """Train every slot of a stack with minibatch backpropagation and momentum.
+    """Train every slot of a stack with minibatch backpropagation (momentum or Adam).
 
     Parameters
     ----------
@@ -184,8 +195,9 @@ def train_stack(
     x_test, y_test, n_test
         Padded test data the same way (``n_test[p] == 0``: no test split).
     learning_rate, momentum
-        Per-slot values, shape (P,); the learning rate multiplies the *summed*
-        gradient of a batch (a per-sample rate, as the thesis's incremental rule).
+        Per-slot values, shape (P,). With SGD the learning rate multiplies the
+        *summed* gradient of a batch (a per-sample rate, as the thesis's
+        incremental rule); with Adam it is the step size and ``momentum`` is unused.
     epochs, batch_size
         Each epoch every slot visits each of its training samples once, in an
         order drawn from its own generator ``rngs[p]``, ``batch_size`` at a
@@ -196,7 +208,15 @@ def train_stack(
     patience
         If set, a slot with a test split stops after this many epochs without a
         new lowest test error.
+    optimizer
+        ``"sgd"`` (minibatch gradient descent with momentum, the thesis's rule) or
+        ``"adam"`` (bias-corrected Adam on the batch's mean gradient).
+    beta1, beta2, epsilon
+        Adam's decay rates of the first and second moment and the constant added
+        to the denominator (ignored by SGD).
     """
+    if optimizer not in ("sgd", "adam"):
+        raise ValueError(f"optimizer must be 'sgd' or 'adam', got {optimizer!r}")
     # Work on the slots sorted by training-set size, largest first (see the step loop).
     order = np.argsort(-n_train, kind="stable")
     result = _train_sorted(
@@ -215,6 +235,7 @@ def train_stack(
         rngs=[rngs[p] for p in order.tolist()],
         early_stopping=early_stopping,
         patience=patience,
+        adam=(float(beta1), float(beta2), float(epsilon)) if optimizer == "adam" else None,
     )
     back = np.argsort(order)
     return TrainResult(
@@ -235,6 +256,7 @@ class _PrefixViews:
         velocity: FloatArray,
         grad: FloatArray,
         squared: FloatArray,
+        second: FloatArray,
         sizes: Sequence[int],
         k: int,
     ) -> None:
@@ -242,6 +264,7 @@ class _PrefixViews:
         self.velocity = velocity[:k]
         self.grad = grad[:k]
         self.squared = squared[:k]
+        self.second = second[:k]
         self.weights = layer_views(self.theta, sizes)
         self.grad_weights = layer_views(self.grad, sizes)
 
@@ -263,11 +286,17 @@ def _train_sorted(
     rngs: Sequence[np.random.Generator],
     early_stopping: bool,
     patience: int | None,
+    adam: tuple[float, float, float] | None,
 ) -> TrainResult:
-    """:func:`train_stack` on slots sorted by ``n_train``, largest first."""
+    """:func:`train_stack` on slots sorted by ``n_train``, largest first.
+
+    ``adam``: ``(beta1, beta2, epsilon)`` to train with Adam, ``None`` for SGD with momentum.
+    """
     n_slots = theta0.shape[0]
     theta = theta0.copy()
-    velocity = np.zeros_like(theta)
+    velocity = np.zeros_like(theta)  # SGD: the last step; Adam: the first moment m
+    second = np.zeros_like(theta) if adam is not None else velocity[:, :0]  # Adam's v
+    adam_steps = np.zeros(n_slots)  # Adam: steps each slot has taken
     grad = np.zeros_like(theta)
     weights = layer_views(theta, sizes)
     squared = np.zeros((n_slots, batch_size, sizes[-1]))  # epoch's squared errors
@@ -305,7 +334,12 @@ def _train_sorted(
         ys = y_train[slot_index, order_steps]
         valid_steps = valid.reshape(n_slots, n_steps, batch_size).transpose(1, 0, 2)
         valid_steps = valid_steps[:, :, :, None].astype(np.float64)  # (steps, P, batch, 1)
-        step_weights = valid_steps * lr_row[None, :, None, None]
+        if adam is None:
+            step_weights = valid_steps * lr_row[None, :, None, None]
+        else:
+            # Adam reads the batch's mean gradient: weigh each real sample 1 / count.
+            counts = valid_steps.sum(axis=2, keepdims=True)
+            step_weights = valid_steps / np.maximum(counts, 1.0)
         # (steps, P): the slot has a sample in this step (its first batch entry is real).
         active: NDArray[np.bool_] = valid_steps[:, :, 0, 0] > 0
         # Slots are sorted by size, largest first, so a step only needs the prefix of
@@ -321,7 +355,7 @@ def _train_sorted(
         for step in range(n_steps):
             k = prefix[step]
             if k not in views:
-                views[k] = _PrefixViews(theta, velocity, grad, squared, sizes, k)
+                views[k] = _PrefixViews(theta, velocity, grad, squared, second, sizes, k)
             v = views[k]
             activations = forward(v.weights, xs[step, :k])
             error = backward(
@@ -330,13 +364,16 @@ def _train_sorted(
             error *= error
             error *= valid_steps[step, :k]
             v.squared += error
-            # Momentum update; grad already holds learning_rate * dE/dW.
-            v.velocity *= momentum_steps[step, :k]
-            v.velocity -= v.grad
-            if all_active[step]:
-                v.theta += v.velocity
+            if adam is not None:
+                _adam_step(v, lr_row[:k], adam_steps[:k], active[step, :k], all_active[step], adam)
             else:
-                v.theta += v.velocity * apply_steps[step, :k]
+                # Momentum update; grad already holds learning_rate * dE/dW.
+                v.velocity *= momentum_steps[step, :k]
+                v.velocity -= v.grad
+                if all_active[step]:
+                    v.theta += v.velocity
+                else:
+                    v.theta += v.velocity * apply_steps[step, :k]
 
         epochs_run[running] += 1
         # Training error: over the epoch's samples, each just before its update.
@@ -362,3 +399,45 @@ def _train_sorted(
     no_test = trained & ~has_test
     best_epoch[no_test] = epochs_run[no_test] - 1
     return TrainResult(theta, train_error, test_error, best_epoch, epochs_run)
+
+
+def _adam_step(
+    v: _PrefixViews,
+    learning_rate: FloatArray,
+    steps: FloatArray,
+    active: NDArray[np.bool_],
+    all_active: bool,
+    adam: tuple[float, float, float],
+) -> None:
+    """One Adam update of the slots in ``v`` (``v.grad``: each slot's mean gradient).
+
+    ``steps`` (a view of the slots' step counts) is advanced in place for the active
+    slots; inactive slots keep their weights, moments and count.
+    """
+    beta1, beta2, epsilon = adam
+    g = v.grad
+    m, s = v.velocity, v.second
+    if all_active:
+        steps += 1.0
+        m *= beta1
+        m += (1.0 - beta1) * g
+        s *= beta2
+        s += (1.0 - beta2) * (g * g)
+        t = steps[:, None]
+        update = m / (1.0 - beta1**t)
+        update /= np.sqrt(s / (1.0 - beta2**t)) + epsilon
+        update *= learning_rate[:, None]
+        v.theta -= update
+        return
+    on = active.astype(np.float64)[:, None]
+    steps += on[:, 0]
+    # Inactive slots: decay factor 1 and a zero gradient leave their moments unchanged.
+    m *= np.where(on > 0, beta1, 1.0)
+    m += ((1.0 - beta1) * on) * g
+    s *= np.where(on > 0, beta2, 1.0)
+    s += ((1.0 - beta2) * on) * (g * g)
+    t = np.maximum(steps, 1.0)[:, None]  # a slot that never stepped has m = v = 0
+    update = m / (1.0 - beta1**t)
+    update /= np.sqrt(s / (1.0 - beta2**t)) + epsilon
+    update *= (learning_rate * on[:, 0])[:, None]
+    v.theta -= update

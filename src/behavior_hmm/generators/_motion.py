@@ -124,12 +124,21 @@ class MotionGenerators(Estimator):
         if self.patience is not None:
             _check_int("patience", self.patience, 1)
         _check_float("learning_rate", self.learning_rate, 0.0, None, low_open=True)
-        _check_float("momentum", self.momentum, 0.0, 1.0, high_open=True)
+        self._optimizer_options()
         _check_float("init_range", self.init_range, 0.0, None, low_open=True)
         _check_float("test_fraction", self.test_fraction, 0.0, 1.0, high_open=True)
         if not isinstance(self.early_stopping, bool | np.bool_):
             raise ConfigError(f"early_stopping must be True or False, got {self.early_stopping!r}")
         _hidden_tuple(self.hidden, 1, self.window)
+
+    def _optimizer_options(self) -> dict[str, Any]:
+        """Checked keyword arguments of :func:`train_stack` choosing the update rule.
+
+        Here the thesis's gradient descent with momentum; :class:`AdamGenerators`
+        overrides it.
+        """
+        _check_float("momentum", self.momentum, 0.0, 1.0, high_open=True)
+        return {"optimizer": "sgd", "momentum": float(self.momentum)}
 
     # --------------------------------------------------------------------- fit
     def fit(
@@ -192,6 +201,8 @@ class MotionGenerators(Estimator):
         n_test = np.array([len(te) for _, te in splits], dtype=np.int64)
         x_tr, y_tr = _pad([tr for tr, _ in splits], x, y)
         x_te, y_te = _pad([te for _, te in splits], x, y)
+        options = self._optimizer_options()
+        momentum = float(options.pop("momentum", 0.0))
         result = train_stack(
             theta0,
             sizes,
@@ -202,12 +213,13 @@ class MotionGenerators(Estimator):
             y_te,
             n_test,
             learning_rate=np.full(n_prim, float(self.learning_rate)),
-            momentum=np.full(n_prim, float(self.momentum)),
+            momentum=np.full(n_prim, momentum),
             epochs=int(self.epochs),
             batch_size=int(self.batch_size),
             rngs=rngs,
             early_stopping=bool(self.early_stopping),
             patience=None if self.patience is None else int(self.patience),
+            **options,
         )
         theta = result.theta
         theta[n_train == 0] = 0.0
@@ -237,16 +249,19 @@ class MotionGenerators(Estimator):
         ]
 
     # ----------------------------------------------------------------- predict
+    def _not_fitted_message(self) -> str:
+        return f"{type(self).__name__} is not fitted yet; call fit() first"
+
     def _check_fitted(self) -> None:
         if not hasattr(self, "_fast_layers"):
-            raise NotFittedError("MotionGenerators is not fitted yet; call fit() first")
+            raise NotFittedError(self._not_fitted_message())
 
     def _layers(self, primitive: int) -> tuple[tuple[FloatArray, FloatArray], ...]:
         """The (W, b) pairs of one trained primitive, or our error."""
         try:
             layers = self._fast_layers[primitive]
         except AttributeError:
-            raise NotFittedError("MotionGenerators is not fitted yet; call fit() first") from None
+            raise NotFittedError(self._not_fitted_message()) from None
         except (IndexError, TypeError):
             layers = None
         if layers is None or primitive < 0:
@@ -361,6 +376,73 @@ class MotionGenerators(Estimator):
             raise ModelFileError(f"invalid motion generator parameters: {exc}") from None
         _load_arrays(model, arrays)
         return model
+
+
+class AdamGenerators(MotionGenerators):
+    """:class:`MotionGenerators` trained with Adam instead of gradient descent with momentum.
+
+    The same stacked tanh networks, split, early stopping, prediction and arrays; only
+    the update rule differs: each minibatch's *mean* gradient drives bias-corrected
+    Adam (Kingma & Ba 2015), ``w -= learning_rate * m_hat / (sqrt(v_hat) + epsilon)``.
+    Adam's step does not grow with the batch or the gradient's scale, so a wider or
+    deeper network (e.g. ``hidden=(64, 64)``) trains without retuning the step size
+    to its width, as the thesis's per-sample rule needs.
+
+    Parameters
+    ----------
+    window, hidden, epochs, batch_size, init_range, test_fraction, early_stopping,
+    patience, min_split_samples, random_state
+        As for :class:`MotionGenerators`.
+    learning_rate
+        Adam's step size (default 1e-3).
+    beta1, beta2
+        Decay rates of the running mean of the gradient and of its square, in [0, 1).
+    epsilon
+        Added to the denominator, > 0.
+    """
+
+    def __init__(
+        self,
+        window: int = 10,
+        hidden: int | tuple[int, ...] | None = None,
+        learning_rate: float = 1e-3,
+        beta1: float = 0.9,
+        beta2: float = 0.999,
+        epsilon: float = 1e-8,
+        epochs: int = 200,
+        batch_size: int = 64,
+        init_range: float = 1.0,
+        test_fraction: float = 0.2,
+        early_stopping: bool = True,
+        patience: int | None = None,
+        min_split_samples: int = 5,
+        random_state: int = 0,
+    ) -> None:
+        self.window = window
+        self.hidden = hidden
+        self.learning_rate = learning_rate
+        self.beta1 = beta1
+        self.beta2 = beta2
+        self.epsilon = epsilon
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.init_range = init_range
+        self.test_fraction = test_fraction
+        self.early_stopping = early_stopping
+        self.patience = patience
+        self.min_split_samples = min_split_samples
+        self.random_state = random_state
+
+    def _optimizer_options(self) -> dict[str, Any]:
+        _check_float("beta1", self.beta1, 0.0, 1.0, high_open=True)
+        _check_float("beta2", self.beta2, 0.0, 1.0, high_open=True)
+        _check_float("epsilon", self.epsilon, 0.0, None, low_open=True)
+        return {
+            "optimizer": "adam",
+            "beta1": float(self.beta1),
+            "beta2": float(self.beta2),
+            "epsilon": float(self.epsilon),
+        }
 
 
 # ---------------------------------------------------------------------- helpers

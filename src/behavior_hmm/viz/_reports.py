@@ -88,6 +88,13 @@ def write_simple_report(results: dict[str, Any], out_dir: str | os.PathLike[str]
     return table
 
 
+def _get(row: dict[str, Any], key: str, n: int | None = None) -> str:
+    """A row's value (``x/n`` for goals), or "—" for a row made before it existed."""
+    if key not in row:
+        return "—"
+    return f"{row[key]}/{n}" if n is not None else f"{row[key]:.1f}"
+
+
 def _spread(summary: dict[str, Any], key: str, digits: int = 1) -> str:
     """``mean ± ci95`` of one key of an ``over_seeds`` row."""
     value = summary[key]
@@ -103,14 +110,16 @@ def seeds_table(results: dict[str, Any], labels: list[str], model: str) -> str:
     lines = [
         f"Over {len(seeds)} seeds ({seeds[0]}..{seeds[-1]}), mean ± 95 % interval (Student's t):",
         "",
-        f"| row | {model} % | {model} goals | BC % | BC goals | zero floor % |",
-        "| --- | --- | --- | --- | --- | --- |",
+        f"| row | {model} % | {model} goals | BC % | BC goals | BC-strong % | BC-strong goals "
+        "| zero floor % |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     key = model.lower()
     for label, row in zip(labels, over, strict=True):
         lines.append(
             f"| {label} | **{_spread(row, key)}** | {_spread(row, key + '_goal_reached')} "
             f"| {_spread(row, 'bc')} | {_spread(row, 'bc_goal_reached')} "
+            f"| {_spread(row, 'bc_strong')} | {_spread(row, 'bc_strong_goal_reached')} "
             f"| {_spread(row, 'zero_floor')} |"
         )
     return "\n".join(lines) + "\n"
@@ -121,16 +130,18 @@ def simple_table(results: dict[str, Any]) -> str:
     preset = results.get("preset", "default")
     lines = [
         f"| behavior | inputs | thesis's own % | SBLM % ({preset} preset) | SBLM goals | BC % "
-        "| BC goals | zero floor % | SBLM motor-max % (floor) | primitives / obs. categories "
+        "| BC goals | BC-strong % | BC-strong goals | zero floor % | SBLM motor-max % (floor) "
+        "| primitives / obs. categories "
         "| SBLM jump × teacher's (median / max) | SBLM switches (max) |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     evaluations = results.get("evaluations") or [{}] * len(results["rows"])
     for r, ev in zip(results["rows"], evaluations, strict=True):
         lines.append(
             f"| {r['behavior']} | {', '.join(r['inputs'])} | {r['thesis']:.1f} "
             f"| **{r['sblm']:.1f}** | {r['sblm_goal_reached']}/{r['n']} | {r['bc']:.1f} "
-            f"| {r['bc_goal_reached']}/{r['n']} | {r['zero_floor']:.1f} "
+            f"| {r['bc_goal_reached']}/{r['n']} | {_get(r, 'bc_strong')} "
+            f"| {_get(r, 'bc_strong_goal_reached', r['n'])} | {r['zero_floor']:.1f} "
             f"| {r['sblm_motor_max']:.1f} ({r['zero_floor_motor_max']:.1f}) "
             f"| {r['primitives']} / {r['observations']} | {_smoothness(ev)} |"
         )
@@ -182,15 +193,21 @@ def complex_table(results: dict[str, Any]) -> str:
     """Markdown tables of the complex experiment (the preset named in the header)."""
     ta = results["turn_approach"]
     bc = ta["baselines"]["bc"]
+    strong = ta["baselines"].get("bc-strong")
+    strong_cells = (
+        f"{strong['success_rate_mean']:.1f} | {strong['goal_reached']}/{strong['n']}"
+        if strong
+        else "— | —"
+    )
     preset = results.get("preset", "default")
     lines = [
         f"| behavior | inputs | thesis's own % | CBLM % ({preset} preset) | CBLM goals | BC % "
-        "| BC goals | zero floor % | CBLM motor-max % (floor) "
+        "| BC goals | BC-strong % | BC-strong goals | zero floor % | CBLM motor-max % (floor) "
         "| CBLM jump × teacher's (median / max) | CBLM component switches (max) |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         f"| turn & approach | distance, angle | 79.8 | **{ta['success_rate_mean']:.1f}** "
         f"| {ta['goal_reached']}/{ta['n']} | {bc['success_rate_mean']:.1f} "
-        f"| {bc['goal_reached']}/{bc['n']} | {ta['zero_floor_mean']:.1f} "
+        f"| {bc['goal_reached']}/{bc['n']} | {strong_cells} | {ta['zero_floor_mean']:.1f} "
         f"| {ta['success_rate_motor_max_mean']:.1f} ({ta['zero_floor_motor_max_mean']:.1f}) "
         f"| {_smoothness(ta)} |",
         "",
