@@ -29,6 +29,7 @@ from behavior_hmm.cli._common import (
     user_errors,
 )
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.viz._html import format_values
 
 app = typer.Typer(context_settings=CONTEXT_SETTINGS)
 
@@ -108,7 +109,7 @@ def demo(
         first = turning[len(turning) // 2]
         trace = model.generate(env, start=_full_start(behavior, first), seed=seed)
         plot_trace(trace, out / f"{behavior}_run.png")
-        where = ", ".join(f"{k} {v:g}" for k, v in trace.start.items())
+        where = format_values(trace.start)
         render_trace(
             trace, out / f"{behavior}_run.gif", robot=env, title=f"{behavior} from {where}"
         )
@@ -141,7 +142,9 @@ def _print_table(rows: list[tuple[str, ...]], sim: str) -> None:
         table.add_column(col, no_wrap=True)
     for row in rows:
         table.add_row(*[Text(str(x)) for x in row])  # plain text, not rich markup
-    Console().print(table)
+    console = Console()
+    # a pipe or a log gets the whole table, not columns cut to 80 characters
+    Console(width=max(console.width, 110)).print(table)
 
 
 def _full_start(behavior: str, start: dict[str, float]) -> dict[str, float]:

@@ -417,7 +417,9 @@ def _write_videos(
 
         scene = make_env("kinematic")
     for i, (trace, _) in enumerate(runs):
-        start = ", ".join(f"{k} {v:g}" for k, v in trace.start.items())
+        from behavior_hmm.viz._html import format_values
+
+        start = format_values(trace.start)
         if not len(trace.pose):  # refused before any motion: nothing to show
             log.warning("no video of case %d (%s): %s", i, start, trace.reason)
             continue
