@@ -23,6 +23,9 @@ T = TypeVar("T")
 R = TypeVar("R")
 Progress = Callable[[int, int], None]
 
+#: Environment variables that cap the BLAS / OpenMP threads of a worker process.
+_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
 #: Executor names of ``--executor``.
 EXECUTORS = ("local", "ray")
 
@@ -74,14 +77,26 @@ class ProcessExecutor:
 
         out: list[Any] = [None] * len(tasks)
         context = multiprocessing.get_context("spawn")  # no forked MuJoCo or Ray state
-        with ProcessPoolExecutor(
-            max_workers=min(self.workers, len(tasks)), mp_context=context
-        ) as pool:
-            futures = {pool.submit(fn, task): i for i, task in enumerate(tasks)}
-            for done, future in enumerate(as_completed(futures), start=1):
-                out[futures[future]] = future.result()
-                if progress is not None:
-                    progress(done, len(tasks))
+        # one BLAS thread per worker: N workers each running OpenBLAS's own threads would
+        # oversubscribe the cores (measured: no faster than one process); the children
+        # read these when they import numpy
+        saved = {key: os.environ.get(key) for key in _THREAD_VARIABLES}
+        os.environ.update(dict.fromkeys(_THREAD_VARIABLES, "1"))
+        try:
+            with ProcessPoolExecutor(
+                max_workers=min(self.workers, len(tasks)), mp_context=context
+            ) as pool:
+                futures = {pool.submit(fn, task): i for i, task in enumerate(tasks)}
+                for done, future in enumerate(as_completed(futures), start=1):
+                    out[futures[future]] = future.result()
+                    if progress is not None:
+                        progress(done, len(tasks))
+        finally:
+            for key, value in saved.items():
+                if value is None:
+                    os.environ.pop(key, None)
+                else:
+                    os.environ[key] = value
         return out
 
 
@@ -100,6 +115,8 @@ class RayExecutor:
                 "log_to_driver": False,
                 "configure_logging": False,
             }
+            # one BLAS thread per task, as for local processes
+            options["runtime_env"] = {"env_vars": dict.fromkeys(_THREAD_VARIABLES, "1")}
             if address:
                 options["address"] = address
             elif workers is not None:
