@@ -17,6 +17,7 @@ from behavior_hmm.data._channels import CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
+from behavior_hmm.runtime import Policy, Trace
 
 
 class LearnedBehavior(Estimator):
@@ -155,6 +156,38 @@ class LearnedBehavior(Estimator):
             "train_data": str(path),
             "train_data_absolute": str(Path(path).resolve()),
         }
+
+    def generate(
+        self,
+        env: Any,
+        start: Mapping[str, float] | None = None,
+        goal: Mapping[str, float] | None = None,
+        **kwargs: Any,
+    ) -> Trace:
+        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop).
+
+        ``env`` is any Gymnasium env that meets the robot contract (docs/robots.md); see
+        :func:`behavior_hmm.models.perform` for the keyword arguments.
+        """
+        from behavior_hmm.models._policy import perform
+
+        return perform(self, env, start=start, goal=goal, **kwargs)
+
+    def policy(
+        self, goal: Mapping[str, float] | None = None, *, name: str = "", tolerance: float = 1.0
+    ) -> Policy:
+        """The behavior's policy toward ``goal`` (``None``: the default goal).
+
+        Call ``reset()`` before a run and ``step({channel: value})`` once per control
+        period (see :class:`behavior_hmm.runtime.Policy`); no simulator is needed, so a
+        robot's own control loop can drive it (docs/robots.md). ``name`` is recorded as
+        the component's name in traces; ``tolerance`` scales the goal's tolerance.
+        """
+        from behavior_hmm.models._policy import make_policy
+
+        self._check_fitted()
+        policy: Policy = make_policy(self, goal, name=name, tolerance=tolerance)
+        return policy
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "hmm_"):

@@ -12,7 +12,7 @@ import os
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,10 +33,6 @@ from behavior_hmm.models._sblm import (
     _jsonable_params,
     _prefixed,
 )
-from behavior_hmm.runtime import Trace
-
-if TYPE_CHECKING:
-    from behavior_hmm.models._complex_policy import ComplexPolicy
 
 FloatArray = NDArray[np.float64]
 
@@ -299,37 +295,6 @@ class CBLM(LearnedBehavior):
         return goal
 
     # -------------------------------------------------------------- generation
-    def generate(
-        self,
-        env: Any,
-        start: Mapping[str, float] | None = None,
-        goal: Mapping[str, float] | None = None,
-        **kwargs: Any,
-    ) -> Trace:
-        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop).
-
-        ``env`` is any Gymnasium env that meets the robot contract (docs/robots.md); see
-        :func:`behavior_hmm.models.perform` for the keyword arguments.
-        """
-        from behavior_hmm.models._policy import perform
-
-        return perform(self, env, start=start, goal=goal, **kwargs)
-
-    def policy(
-        self, goal: Mapping[str, float] | None = None, *, name: str = "", tolerance: float = 1.0
-    ) -> ComplexPolicy:
-        """The behavior's policy toward ``goal`` (``None``: the default goal).
-
-        Call ``reset()`` before a run and ``step({channel: value})`` once per control
-        period (see :class:`behavior_hmm.runtime.Policy`); no simulator is needed, so a
-        robot's own control loop can drive it (docs/robots.md). ``name`` is recorded as
-        the component's name in traces; ``tolerance`` scales the goal's tolerance.
-        """
-        from behavior_hmm.models._complex_policy import ComplexPolicy
-
-        self._check_fitted()
-        return ComplexPolicy(self, goal, name=name, tolerance=tolerance)
-
     # --------------------------------------------------------------- save/load
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the model (own tables + the components' files embedded byte for byte)."""

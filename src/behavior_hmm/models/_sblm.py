@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import os
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,10 +35,6 @@ from behavior_hmm.models._goals import (
     check_goal,
     check_input_names,
 )
-from behavior_hmm.runtime import Trace
-
-if TYPE_CHECKING:
-    from behavior_hmm.models._policy import SimplePolicy
 
 FloatArray = NDArray[np.float64]
 
@@ -477,37 +473,6 @@ class SBLM(LearnedBehavior):
                 )
 
     # -------------------------------------------------------------- generation
-    def generate(
-        self,
-        env: Any,
-        start: Mapping[str, float] | None = None,
-        goal: Mapping[str, float] | None = None,
-        **kwargs: Any,
-    ) -> Trace:
-        """Perform the behavior in ``env`` from ``start`` to ``goal`` (closed loop).
-
-        ``env`` is any Gymnasium env that meets the robot contract (docs/robots.md); see
-        :func:`behavior_hmm.models.perform` for the keyword arguments.
-        """
-        from behavior_hmm.models._policy import perform
-
-        return perform(self, env, start=start, goal=goal, **kwargs)
-
-    def policy(
-        self, goal: Mapping[str, float] | None = None, *, name: str = "", tolerance: float = 1.0
-    ) -> SimplePolicy:
-        """The behavior's policy toward ``goal`` (``None``: the default goal).
-
-        Call ``reset()`` before a run and ``step({channel: value})`` once per control
-        period (see :class:`behavior_hmm.runtime.Policy`); no simulator is needed, so a
-        robot's own control loop can drive it (docs/robots.md). ``name`` is recorded as
-        the component's name in traces; ``tolerance`` scales the goal's tolerance.
-        """
-        from behavior_hmm.models._policy import SimplePolicy
-
-        self._check_fitted()
-        return SimplePolicy(self, goal, name=name, tolerance=tolerance)
-
     # --------------------------------------------------------------- save/load
     def _state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         self._check_fitted()
