@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, Final, SupportsFloat
 
 import gymnasium
@@ -21,6 +21,7 @@ from behavior_hmm.data._channels import (
 from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.sim._kinematic import KinematicBackend
 from behavior_hmm.sim._mujoco import MujocoBackend
+from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes
 from behavior_hmm.sim._params import RobotParams
 from behavior_hmm.sim._render import TopDownRenderer
 
@@ -30,7 +31,6 @@ BACKENDS: Final[tuple[str, ...]] = ("mujoco", "kinematic")
 DEFAULT_START: Final[dict[str, float]] = {"angle": 0.0, "distance": 0.5}
 
 _RESET_OPTIONS = ("angle", "distance", "noise", "push", "random")
-_PUSH_KEYS = ("step", "angle", "distance")
 # Generous finite observation bounds (the arena itself is 1.2 m; noise may exceed it).
 _OBS_LOW = np.array([-100.0, -100.0, -180.0, -1.0e5])
 _OBS_HIGH = np.array([1000.0, 100.0, 180.0, 1.0e5])
@@ -42,22 +42,6 @@ def wrap_degrees(angle: float) -> float:
     """Wrap an angle (degrees) into (-180, 180]."""
     wrapped = (angle + 180.0) % 360.0 - 180.0
     return 180.0 if wrapped == -180.0 else wrapped
-
-
-def _number(value: object, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ConfigError(f"{what} must be a number, got {value!r}")
-    out = float(value)
-    if not math.isfinite(out):
-        raise ConfigError(f"{what} must be finite, got {out}")
-    return out
-
-
-def _check_noise(value: object, what: str) -> float:
-    sigma = _number(value, what)
-    if sigma < 0.0:
-        raise ConfigError(f"{what} must be >= 0, got {sigma}")
-    return sigma
 
 
 class KheperaEnv(gymnasium.Env[Obs, Obs]):
@@ -142,7 +126,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
             raise ConfigError(f"unknown render_mode {render_mode!r}; expected None or 'rgb_array'")
         self.backend = backend
         self.params = params
-        self.noise = _check_noise(noise, "noise")
+        self.noise = check_noise(noise, "noise")
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": 1.0 / params.control_period}
@@ -190,7 +174,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
         if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
             left, right = action.tolist()
         else:
-            left, right = self._parse_action(action)
+            left, right = parse_action(action)
         if not (math.isfinite(left) and math.isfinite(right)):
             raise ConfigError(f"action must be finite, got ({left}, {right})")
         lim = self.params.max_wheel_speed
@@ -269,7 +253,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
         """
         if not self._ready:
             raise SimulationError("call reset() before push()")
-        self._displace(_number(angle, "push angle"), _number(distance, "push distance"))
+        self._displace(number(angle, "push angle"), number(distance, "push distance"))
         return self._true_observation()
 
     @property
@@ -278,18 +262,6 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
         return self._step
 
     # ------------------------------------------------------------------ internals
-    def _parse_action(self, action: Any) -> tuple[float, float]:
-        try:
-            arr = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ConfigError(f"action must be 2 numbers (left, right) in rad/s: {exc}") from exc
-        if arr.shape != (2,):
-            raise ConfigError(
-                f"action must have shape (2,) = (left, right) wheel speeds, got shape {arr.shape}"
-            )
-        left, right = arr.tolist()
-        return left, right
-
     def _parse_options(
         self, options: Mapping[str, Any] | None
     ) -> tuple[float, float, float, dict[int, list[tuple[float, float]]]]:
@@ -306,13 +278,13 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
         if not isinstance(randomize, bool | np.bool_):
             raise ConfigError(f"random option must be True or False, got {randomize!r}")
         if "angle" in options:
-            angle = _number(options["angle"], "start angle")
+            angle = number(options["angle"], "start angle")
         elif randomize:
             angle = float(self.np_random.uniform(-180.0, 180.0))
         else:
             angle = DEFAULT_START["angle"]
         if "distance" in options:
-            distance = _number(options["distance"], "start distance")
+            distance = number(options["distance"], "start distance")
         elif randomize:
             distance = float(self.np_random.uniform(0.0, ARENA_MAX_DISTANCE))
         else:
@@ -324,36 +296,8 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
             )
         if not -180.0 <= angle <= 180.0:
             raise ConfigError(f"start outside the arena: angle {angle:g} deg not in [-180, 180]")
-        sigma = _check_noise(options["noise"], "noise option") if "noise" in options else self.noise
-        return angle, distance, sigma, self._parse_pushes(options.get("push"))
-
-    @staticmethod
-    def _parse_pushes(raw: object) -> dict[int, list[tuple[float, float]]]:
-        if raw is None:
-            return {}
-        items: Sequence[object]
-        if isinstance(raw, Mapping):
-            items = [raw]
-        elif isinstance(raw, list | tuple):
-            items = raw
-        else:
-            raise ConfigError(f"push option must be a dict or a list of dicts, got {raw!r}")
-        pushes: dict[int, list[tuple[float, float]]] = {}
-        for item in items:
-            if not isinstance(item, Mapping):
-                raise ConfigError(f"each push must be a dict, got {item!r}")
-            unknown = sorted(str(k) for k in item if k not in _PUSH_KEYS)
-            if unknown:
-                raise ConfigError(
-                    f"unknown push key(s): {', '.join(unknown)}; expected step, angle, distance"
-                )
-            step = item.get("step")
-            if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
-                raise ConfigError(f"push step must be an integer >= 1, got {step!r}")
-            d_angle = _number(item.get("angle", 0.0), "push angle")
-            d_distance = _number(item.get("distance", 0.0), "push distance")
-            pushes.setdefault(int(step), []).append((d_angle, d_distance))
-        return pushes
+        sigma = check_noise(options["noise"], "noise option") if "noise" in options else self.noise
+        return angle, distance, sigma, parse_pushes(options.get("push"))
 
     def _place(self, angle: float, distance: float) -> None:
         # Robot on the -x axis; the object (origin) then lies straight ahead at yaw 0,

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from behavior_hmm.data._channels import CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.data._units import wrap_degree
 from behavior_hmm.errors import ConfigError, SimulationError
+from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes
 
 #: Sensor channels of the observation ``Dict``, in canonical order.
 CHANNELS: Final[tuple[str, ...]] = SENSOR_CHANNELS
@@ -99,7 +100,6 @@ _SETTLE_TIME = 1.0  # s, to let the robot sink into its soft wheel contacts once
 _OVERLAP_TOLERANCE = 0.005  # m of penetration into the object a start may have
 
 _RESET_OPTIONS = ("angle", "distance", "noise", "push")
-_PUSH_KEYS = ("step", "angle", "distance")
 # Generous finite observation bounds (noise may push a reading past the physical range).
 _OBS_BOUNDS: Final[dict[str, tuple[float, float]]] = {
     "distance": (-100.0, 1000.0),
@@ -110,22 +110,6 @@ _OBS_BOUNDS: Final[dict[str, tuple[float, float]]] = {
 
 Obs = dict[str, NDArray[np.float64]]
 Action = NDArray[np.float64]
-
-
-def _number(value: object, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ConfigError(f"{what} must be a number, got {value!r}")
-    out = float(value)
-    if not math.isfinite(out):
-        raise ConfigError(f"{what} must be finite, got {out}")
-    return out
-
-
-def _check_noise(value: object, what: str) -> float:
-    sigma = _number(value, what)
-    if sigma < 0.0:
-        raise ConfigError(f"{what} must be >= 0, got {sigma}")
-    return sigma
 
 
 def _flush_c_stdout() -> None:
@@ -262,7 +246,7 @@ class HuskyEnv(gymnasium.Env[dict[str, Any], Action]):
             raise ConfigError(
                 f"the Husky env cannot render; render_mode must be None, got {render_mode!r}"
             )
-        self.noise = _check_noise(noise, "noise")
+        self.noise = check_noise(noise, "noise")
         self.max_episode_steps = int(max_episode_steps)
         self.render_mode = render_mode
 
@@ -423,7 +407,9 @@ class HuskyEnv(gymnasium.Env[dict[str, Any], Action]):
         """Apply ``(left, right)`` wheel speeds (rad/s) for one control period."""
         if not self._ready:
             raise SimulationError("call reset() before step()")
-        left, right = self._parse_action(action)
+        left, right = parse_action(action)
+        if not (math.isfinite(left) and math.isfinite(right)):
+            raise ConfigError(f"action must be finite, got ({left}, {right})")
         lim = MAX_WHEEL_SPEED
         left = min(max(left, -lim), lim)
         right = min(max(right, -lim), lim)
@@ -463,7 +449,7 @@ class HuskyEnv(gymnasium.Env[dict[str, Any], Action]):
         """
         if not self._ready:
             raise SimulationError("call reset() before push()")
-        self._displace(_number(angle, "push angle"), _number(distance, "push distance"))
+        self._displace(number(angle, "push angle"), number(distance, "push distance"))
         return self._true_observation()
 
     @property
@@ -475,21 +461,6 @@ class HuskyEnv(gymnasium.Env[dict[str, Any], Action]):
     def _check_open(self) -> None:
         if self._client is None:
             raise SimulationError("the Husky env is closed")
-
-    @staticmethod
-    def _parse_action(action: Any) -> tuple[float, float]:
-        try:
-            arr = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ConfigError(f"action must be 2 numbers (left, right) in rad/s: {exc}") from exc
-        if arr.shape != (2,):
-            raise ConfigError(
-                f"action must have shape (2,) = (left, right) wheel speeds, got shape {arr.shape}"
-            )
-        left, right = arr.tolist()
-        if not (math.isfinite(left) and math.isfinite(right)):
-            raise ConfigError(f"action must be finite, got ({left}, {right})")
-        return left, right
 
     def _parse_options(
         self, options: Mapping[str, Any] | None
@@ -503,42 +474,14 @@ class HuskyEnv(gymnasium.Env[dict[str, Any], Action]):
                 f"unknown reset option(s): {', '.join(unknown)}; "
                 f"expected some of {', '.join(_RESET_OPTIONS)}"
             )
-        angle = _number(options.get("angle", DEFAULT_START["angle"]), "start angle")
-        distance = _number(options.get("distance", DEFAULT_START["distance"]), "start distance")
+        angle = number(options.get("angle", DEFAULT_START["angle"]), "start angle")
+        distance = number(options.get("distance", DEFAULT_START["distance"]), "start distance")
         if not 0.0 <= distance <= MAX_START_DISTANCE:
             raise ConfigError(f"start distance {distance:g} m not in [0, {MAX_START_DISTANCE:g}] m")
         if not -180.0 <= angle <= 180.0:
             raise ConfigError(f"start angle {angle:g} deg not in [-180, 180]")
-        sigma = _check_noise(options["noise"], "noise option") if "noise" in options else self.noise
-        return angle, distance, sigma, self._parse_pushes(options.get("push"))
-
-    @staticmethod
-    def _parse_pushes(raw: object) -> dict[int, list[tuple[float, float]]]:
-        if raw is None:
-            return {}
-        items: Sequence[object]
-        if isinstance(raw, Mapping):
-            items = [raw]
-        elif isinstance(raw, list | tuple):
-            items = raw
-        else:
-            raise ConfigError(f"push option must be a dict or a list of dicts, got {raw!r}")
-        pushes: dict[int, list[tuple[float, float]]] = {}
-        for item in items:
-            if not isinstance(item, Mapping):
-                raise ConfigError(f"each push must be a dict, got {item!r}")
-            unknown = sorted(str(k) for k in item if k not in _PUSH_KEYS)
-            if unknown:
-                raise ConfigError(
-                    f"unknown push key(s): {', '.join(unknown)}; expected step, angle, distance"
-                )
-            step = item.get("step")
-            if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
-                raise ConfigError(f"push step must be an integer >= 1, got {step!r}")
-            d_angle = _number(item.get("angle", 0.0), "push angle")
-            d_distance = _number(item.get("distance", 0.0), "push distance")
-            pushes.setdefault(int(step), []).append((d_angle, d_distance))
-        return pushes
+        sigma = check_noise(options["noise"], "noise option") if "noise" in options else self.noise
+        return angle, distance, sigma, parse_pushes(options.get("push"))
 
     def _place(self, angle: float, distance: float) -> None:
         """Restore the settled robot and put it at rest at this bearing and distance."""
