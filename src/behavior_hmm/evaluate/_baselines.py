@@ -21,7 +21,13 @@ from behavior_hmm.generators import MotionGenerators
 from behavior_hmm.generators._features import FeatureLayout, shifted_windows
 from behavior_hmm.generators._motion import AdamGenerators
 from behavior_hmm.models._goals import check_goal, check_input_names, within_tolerance
-from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, StepOutput, Trace, run_policy
+from behavior_hmm.runtime import (
+    DEFAULT_FAULT_HOLD_S,
+    StepOutput,
+    Trace,
+    ordered_channels,
+    run_policy,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -283,10 +289,7 @@ class BCPolicy:
         self.goal = goal
         self._model = model
         self._channels = tuple(model.inputs_)
-        self.channels = tuple(c for c in SENSOR_CHANNELS if c in self._channels) + tuple(
-            c for c in self._channels if c not in SENSOR_CHANNELS
-        )
-        self._idx = self._channels
+        self.channels = ordered_channels(self._channels)
         self._pipe = model.pipeline_.online()
         norm = model.pipeline_.normalizer
         self._lo = np.array(norm.lo, dtype=np.float64)

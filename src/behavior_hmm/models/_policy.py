@@ -8,9 +8,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import SENSOR_CHANNELS, TOLERANCES, within_tolerance
+from behavior_hmm.data._channels import TOLERANCES, within_tolerance
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
-from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, run_policy
+from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
 from behavior_hmm.runtime._policy import StepOutput
 
 if TYPE_CHECKING:
@@ -36,10 +36,7 @@ def read_channels(model: Any) -> tuple[str, ...]:
         names += [c for c in REST_CHANNELS if c not in names]
     for component in getattr(model, "components_", None) or ():
         names += [c for c in read_channels(component) if c not in names]
-    return (
-        *[c for c in SENSOR_CHANNELS if c in names],
-        *[c for c in names if c not in SENSOR_CHANNELS],
-    )
+    return ordered_channels(names)
 
 
 class GoalTracking:

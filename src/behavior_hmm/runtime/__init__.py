@@ -19,6 +19,7 @@ from behavior_hmm.runtime._robot import (
     Robot,
     RobotSpec,
     make_robot_env,
+    ordered_channels,
     parse_env_kwargs,
 )
 from behavior_hmm.runtime._trace import Trace
@@ -34,6 +35,7 @@ __all__ = [
     "Trace",
     "hold_steps",
     "make_robot_env",
+    "ordered_channels",
     "parse_env_kwargs",
     "run_policy",
     "start_options",
