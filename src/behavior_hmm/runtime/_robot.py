@@ -168,6 +168,15 @@ class Robot:
         self._order = [names.index(c) for c in own]
         self._slots = [self.channels.index(c) for c in own]
         self._previous: dict[str, FloatArray | None] = {"obs": None, "true": None}
+        # (slot of the derived velocity, slot of the position it comes from, wraps?)
+        self._derivations = [
+            (
+                self.channels.index(name),
+                self.channels.index(DERIVABLE[name]),
+                name == "angular_velocity",
+            )
+            for name in self.derived
+        ]
         self.control_period = control_period(env)
         self.spec = robot_spec(env)
         action = getattr(env, "action_space", None)
@@ -221,13 +230,11 @@ class Robot:
         previous = self._previous[stream]
         self._previous[stream] = out
         if previous is not None:
-            for name in self.derived:
-                j = self.channels.index(name)
-                source = self.channels.index(DERIVABLE[name])
+            for slot, source, wraps in self._derivations:
                 change = out[source] - previous[source]
-                if name == "angular_velocity":
+                if wraps:
                     change = (change + 180.0) % 360.0 - 180.0
-                out[j] = -change / self.control_period
+                out[slot] = -change / self.control_period
         return out
 
     def as_dict(self, values: FloatArray) -> dict[str, float]:
