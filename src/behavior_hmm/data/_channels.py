@@ -280,7 +280,8 @@ def within_tolerance(
         tol = spec.tolerance
         if tol is None:
             raise ConfigError(f"channel '{name}' has no goal tolerance; it cannot be a goal")
-        if abs(spec.error(values[name], target)) > scale * tol:
+        # the boundary counts as inside, whatever the decimals (0.99 - 1.0 is -0.01000...09)
+        if abs(spec.error(values[name], target)) > scale * tol * (1.0 + 1e-9):
             return False
     return True
 

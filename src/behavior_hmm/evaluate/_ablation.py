@@ -6,6 +6,13 @@ default minus each departure (that one at its thesis value). Only departures tha
 the task's models are listed: an SBLM task has no CBLM departures. Every row is trained
 on the same demonstrations and evaluated from the task's test starts (DESIGN §6), beside
 the all-zero floor.
+
+The work runs through the project's executor (:mod:`behavior_hmm.evaluate._executor`) in
+three stages of independent tasks: collect each behavior's demonstrations; fit every
+distinct SBLM (an SBLM with the same parameters, data and seed is fitted once, whichever
+rows and tasks use it, the turn-approach components included); then per row and seed,
+fit the row's CBLM (complex task) and evaluate. Every seed comes from the run's seed and
+the task's identity, so the results are the same whatever executor runs them.
 """
 
 from __future__ import annotations
@@ -16,8 +23,10 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.evaluate._executor import Executor, SerialExecutor
+from behavior_hmm.evaluate._experiments import _collect_task, check_seeds, over_seeds
 from behavior_hmm.evaluate._protocol import evaluate_model
-from behavior_hmm.models._presets import DEPARTURES, departure, preset_params
+from behavior_hmm.models._presets import DEPARTURES, KINDS, departure, preset_params
 
 Progress = Callable[[int, int], None]
 
@@ -98,8 +107,46 @@ def ablation_rows(item: AblationTask, departures: Iterable[str] | None = None) -
     return rows
 
 
+#: Row keys summarized over seeds (``seeds`` K > 1): mean and 95 % interval of each.
+OVER_SEEDS_KEYS: Final[tuple[str, ...]] = ("success_rate_mean", "goal_reached")
+
+
+def _frozen(params: Mapping[str, Any]) -> tuple[tuple[str, str], ...]:
+    return tuple(sorted((k, repr(v)) for k, v in params.items()))
+
+
+def _fit_sblm(
+    inputs: tuple[str, ...], params: Mapping[str, Any], dataset: Any, seed: int
+) -> tuple[Any, float]:
+    """An SBLM fitted on ``dataset`` and its fitting time (wall-clock seconds)."""
+    from behavior_hmm.models import SBLM
+
+    t0 = time.perf_counter()
+    model = SBLM(**params, inputs=inputs, random_state=seed).fit(dataset)
+    return model, time.perf_counter() - t0
+
+
+def _fit_cblm(
+    components: Sequence[Any],
+    inputs: tuple[str, ...],
+    params: Mapping[str, Any],
+    dataset: Any,
+    seed: int,
+) -> tuple[Any, float]:
+    """A CBLM composed of fitted ``components``, fitted on ``dataset``, and its time (s)."""
+    from behavior_hmm.models import CBLM
+
+    t0 = time.perf_counter()
+    model = CBLM(list(components), **params, inputs=inputs, random_state=seed).fit(dataset)
+    return model, time.perf_counter() - t0
+
+
 class _Models:
-    """Fitted models, shared by the rows (and tasks) whose parameters are the same."""
+    """Fitted models of one seed, in this process, shared by the rows whose parameters match.
+
+    For callers that want one model at a time (``experiment faults``);
+    :func:`run_ablation` fits the same models as executor tasks.
+    """
 
     def __init__(self, sim: str, seed: int) -> None:
         self.sim = sim
@@ -108,39 +155,25 @@ class _Models:
         self._fitted: dict[tuple[Any, ...], tuple[Any, float]] = {}
 
     def data(self, behavior: str) -> Any:
-        from behavior_hmm.teach import collect
-
         if behavior not in self._data:
-            self._data[behavior] = collect(behavior, sim=self.sim, seed=self.seed)
+            self._data[behavior] = _collect_task((behavior, self.sim, self.seed))
         return self._data[behavior]
 
     def simple(self, item: AblationTask, params: Mapping[str, Any]) -> tuple[Any, float]:
-        from behavior_hmm.models import SBLM
-
         key = ("SBLM", item.behavior, item.inputs, _frozen(params))
         if key not in self._fitted:
             dataset = self.data(item.behavior)
-            t0 = time.perf_counter()
-            model = SBLM(**params, inputs=item.inputs, random_state=self.seed).fit(dataset)
-            self._fitted[key] = (model, time.perf_counter() - t0)
+            self._fitted[key] = _fit_sblm(item.inputs, params, dataset, self.seed)
         return self._fitted[key]
 
     def complex(self, item: AblationTask, row: AblationRow) -> tuple[Any, float]:
-        from behavior_hmm.models import CBLM
-
         components = [self.simple(task(name), row.params("SBLM"))[0] for name in item.components]
         params = row.params("CBLM")
         key = ("CBLM", item.behavior, item.inputs, _frozen(params), _frozen(row.params("SBLM")))
         if key not in self._fitted:
             dataset = self.data(item.behavior)
-            t0 = time.perf_counter()
-            model = CBLM(components, **params, inputs=item.inputs).fit(dataset)
-            self._fitted[key] = (model, time.perf_counter() - t0)
+            self._fitted[key] = _fit_cblm(components, item.inputs, params, dataset, self.seed)
         return self._fitted[key]
-
-
-def _frozen(params: Mapping[str, Any]) -> tuple[tuple[str, str], ...]:
-    return tuple(sorted((k, repr(v)) for k, v in params.items()))
 
 
 def run_ablation(
@@ -151,75 +184,205 @@ def run_ablation(
     tasks: Sequence[str] | None = None,
     departures: Iterable[str] | None = None,
     progress: Progress | None = None,
+    executor: Executor | None = None,
+    seeds: int = 1,
+    overrides: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """Train and evaluate every ablation row of every task.
 
     Parameters
     ----------
     sim, seed, noise
-        Simulator backend, seed of the demonstrations, models and evaluation, and the
-        evaluation's sensor noise (sigma × channel range).
+        Simulator backend; the run's seed (of the demonstrations, and of the first
+        seed's models and evaluation); the evaluation's sensor noise (sigma × channel
+        range).
     tasks
         Task names (default: all of :data:`ABLATION_TASKS`).
     departures
-        Restrict the single-departure rows to these departures (default: all).
+        Restrict the single-departure rows to these departures (default: all; an empty
+        list leaves the thesis and default rows only).
     progress
-        Called with (rows done, rows in all).
+        Called with (tasks done, tasks in all): collections, SBLM fits and rows.
+    executor
+        Runs the tasks (default: this process, one after another).
+    seeds
+        K models per row: one demonstration set per behavior (collected with ``seed``),
+        then each row trained and evaluated with seeds ``seed .. seed + K - 1``.
+    overrides
+        Constructor parameters by kind (``{"SBLM": {"epochs": 20}}``) set in every row
+        over its preset and departures (e.g. shorter training for a quick check); one
+        that a departure switches makes that departure's rows equal to their preset's.
 
     Returns
     -------
     dict
-        ``tasks``: per task its ``rows`` (label, preset, switched, success %, goals
-        reached, zero floor, sizes, training seconds) and the thesis's figure.
+        ``sim``, ``seed``, ``noise`` and ``tasks``: per task its ``rows`` (label, preset,
+        switched, success %, goals reached, zero floor, the evaluation's command-jump
+        ratio median and max and its ``switches_max`` (primitive changes of an SBLM,
+        component changes of a CBLM), sizes, refused goals) and the thesis's figure;
+        ``timings``: ``{"train_s": {task: [[seconds per seed] per row]}}`` (wall-clock,
+        kept out of results.json). With K > 1, also ``seeds``, each row's
+        ``over_seeds`` (:func:`over_seeds` of :data:`OVER_SEEDS_KEYS`; the row's other
+        values are the first seed's) and each task's ``per_seed_rows``. Everything but
+        the timings is the same whatever the executor.
     """
+    run = executor or SerialExecutor()
+    seed_list = [seed + k for k in range(check_seeds(seeds))]
+    extra = _check_overrides(overrides)
     chosen = [task(n) for n in (tasks or [t.name for t in ABLATION_TASKS])]
     wanted = None if departures is None else list(departures)
     plan = [(item, ablation_rows(item, wanted)) for item in chosen]
-    total = sum(len(rows) for _, rows in plan)
-    models = _Models(sim, seed)
-    done = 0
+
+    def params(row: AblationRow, kind: str) -> dict[str, Any]:
+        return {**row.params(kind), **extra.get(kind, {})}
+
+    # Every distinct SBLM (stage 2) and row (stage 3), once each, in a fixed order: rows
+    # (and tasks) whose models have the same parameters and seed share them.
+    fits: dict[tuple[Any, ...], tuple[AblationTask, dict[str, Any], int]] = {}
+    jobs: dict[tuple[Any, ...], tuple[AblationTask, list[tuple[Any, ...]], Any, int]] = {}
+    owner: dict[tuple[str, int, int], tuple[Any, ...]] = {}
+    for s in seed_list:
+        for item, rows in plan:
+            for j, row in enumerate(rows):
+                sblm = params(row, "SBLM")
+                sblm_keys = []
+                for part in [task(n) for n in item.components] or [item]:
+                    key = ("SBLM", part.behavior, part.inputs, _frozen(sblm), s)
+                    fits.setdefault(key, (part, sblm, s))
+                    sblm_keys.append(key)
+                cblm = params(row, "CBLM") if item.components else None
+                job = (item.name, _frozen(sblm), _frozen(cblm or {}), s)
+                jobs.setdefault(job, (item, sblm_keys, cblm, s))
+                owner[(item.name, j, s)] = job
+    behaviors = sorted(
+        {part.behavior for part, _, _ in fits.values()} | {i.behavior for i in chosen}
+    )
+    data_tasks = [(b, sim, seed) for b in behaviors]
+    total = len(data_tasks) + len(fits) + len(jobs)
+    offset = 0
+
+    def advance(done: int, _: int) -> None:
+        if progress is not None:
+            progress(offset + done, total)
+
+    # demonstrations are recorded once, with the run's seed: the same for every seed
+    collected = run.map(_collect_task, data_tasks, advance)
+    datasets = dict(zip(behaviors, collected, strict=True))
+    offset += len(data_tasks)
+    fit_tasks = [(part.inputs, p, datasets[part.behavior], s) for part, p, s in fits.values()]
+    fitted = dict(zip(fits, run.map(_sblm_task, fit_tasks, advance), strict=True))
+    offset += len(fit_tasks)
+    row_tasks = [
+        (
+            item,
+            [fitted[k][0] for k in sblm_keys],
+            cblm,
+            datasets[item.behavior] if item.components else None,
+            sim,
+            s,
+            noise,
+        )
+        for item, sblm_keys, cblm, s in jobs.values()
+    ]
+    outcomes = dict(zip(jobs, run.map(_row_task, row_tasks, advance), strict=True))
+
     out: list[dict[str, Any]] = []
+    train_s: dict[str, list[list[float]]] = {}
+    for item, rows in plan:
+        per_seed: list[list[dict[str, Any]]] = []
+        seconds: list[list[float]] = [[] for _ in rows]
+        for s in seed_list:
+            mine = []
+            for j, row in enumerate(rows):
+                key = owner[(item.name, j, s)]
+                outcome = outcomes[key]
+                # a CBLM row's time is its CBLM's fit, an SBLM row's its SBLM's
+                took = outcome["train_s"]
+                seconds[j].append(took if took is not None else fitted[jobs[key][1][0]][1])
+                mine.append(
+                    {
+                        "label": row.label,
+                        "preset": row.preset,
+                        "switched": list(row.switched),
+                        **outcome["summary"],
+                    }
+                )
+            per_seed.append(mine)
+        entry: dict[str, Any] = {
+            "task": item.name,
+            "behavior": item.behavior,
+            "inputs": list(item.inputs),
+            "components": list(item.components),
+            "thesis": item.thesis,
+            "rows": per_seed[0],
+        }
+        if len(seed_list) > 1:
+            summaries = over_seeds(per_seed, OVER_SEEDS_KEYS)
+            entry["rows"] = [
+                {**r, "over_seeds": o} for r, o in zip(per_seed[0], summaries, strict=True)
+            ]
+            entry["per_seed_rows"] = per_seed
+        out.append(entry)
+        train_s[item.name] = seconds
+    result: dict[str, Any] = {"sim": sim, "seed": seed, "noise": noise, "tasks": out}
+    if len(seed_list) > 1:
+        result["seeds"] = seed_list
+    result["timings"] = {"train_s": train_s}
+    return result
+
+
+def _check_overrides(
+    overrides: Mapping[str, Mapping[str, Any]] | None,
+) -> dict[str, dict[str, Any]]:
+    """``overrides`` by kind, or a ConfigError naming an unknown kind or parameter."""
+    from behavior_hmm.models._presets import constructor_defaults
+
+    out: dict[str, dict[str, Any]] = {}
+    for kind, values in (overrides or {}).items():
+        if kind not in KINDS:
+            raise ConfigError(f"unknown model kind {kind!r}; choose from {', '.join(KINDS)}")
+        unknown = sorted(set(values) - set(constructor_defaults(kind)))
+        if unknown:
+            raise ConfigError(f"unknown {kind} parameter(s) {', '.join(unknown)}")
+        out[kind] = dict(values)
+    return out
+
+
+def _sblm_task(task: tuple[Any, ...]) -> tuple[Any, float]:
+    """Fit one SBLM: ``(inputs, params, dataset, seed)`` (an executor task)."""
+    inputs, params, dataset, seed = task
+    return _fit_sblm(inputs, params, dataset, seed)
+
+
+def _row_task(task: tuple[Any, ...]) -> dict[str, Any]:
+    """Evaluate one row of one seed (an executor task).
+
+    ``task``: ``(item, models, cblm_params, dataset, sim, seed, noise)``. A simple task's
+    ``models`` is its fitted SBLM, evaluated as it is; a complex task's are the fitted
+    components of a CBLM with ``cblm_params``, fitted here on ``dataset`` first. Returns
+    the row's ``summary`` and ``train_s`` (the CBLM's fitting seconds; None for an SBLM).
+    """
     from behavior_hmm.teach import test_starts
 
-    for item, rows in plan:
-        starts = test_starts(item.behavior)
-        results = []
-        for row in rows:
-            if item.components:
-                model, train_s = models.complex(item, row)
-            else:
-                model, train_s = models.simple(item, row.params("SBLM"))
-            result = evaluate_model(model, starts, sim=sim, seed=seed, noise=noise)
-            entry = {
-                "label": row.label,
-                "preset": row.preset,
-                "switched": list(row.switched),
-                "success_rate_mean": result["success_rate_mean"],
-                "goal_reached": result["goal_reached"],
-                "n": result["n"],
-                "zero_floor_mean": result["zero_floor_mean"],
-                "observations": int(model.observations_.n_categories_),
-                "train_s": train_s,
-                "refused": sum(1 for c in result["cases"] if c["reason"].startswith("unreach")),
-                # component (CBLM) or primitive-plan changes: how much the run switches
-                "switches_max": max(len(c["components"]) - 1 for c in result["cases"])
-                if item.components
-                else max(c["plan_changes"] for c in result["cases"]),
-            }
-            if not item.components:
-                entry["primitives"] = int(model.primitives_.n_categories_)
-            results.append(entry)
-            done += 1
-            if progress is not None:
-                progress(done, total)
-        out.append(
-            {
-                "task": item.name,
-                "behavior": item.behavior,
-                "inputs": list(item.inputs),
-                "components": list(item.components),
-                "thesis": item.thesis,
-                "rows": results,
-            }
-        )
-    return {"sim": sim, "seed": seed, "noise": noise, "tasks": out}
+    item, models, cblm_params, dataset, sim, seed, noise = task
+    train_s = None
+    if item.components:
+        model, train_s = _fit_cblm(models, item.inputs, cblm_params, dataset, seed)
+    else:
+        (model,) = models
+    result = evaluate_model(model, test_starts(item.behavior), sim=sim, seed=seed, noise=noise)
+    summary = {
+        "success_rate_mean": result["success_rate_mean"],
+        "goal_reached": result["goal_reached"],
+        "n": result["n"],
+        "zero_floor_mean": result["zero_floor_mean"],
+        "command_jump_ratio_median": result["command_jump_ratio_median"],
+        "command_jump_ratio_max": result["command_jump_ratio_max"],
+        # primitive changes of an SBLM, component changes of a CBLM (the evaluation's)
+        "switches_max": result["switches_max"],
+        "observations": int(model.observations_.n_categories_),
+        "refused": sum(1 for c in result["cases"] if c["reason"].startswith("unreach")),
+    }
+    if not item.components:
+        summary["primitives"] = int(model.primitives_.n_categories_)
+    return {"summary": summary, "train_s": train_s}

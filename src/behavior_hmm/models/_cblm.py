@@ -85,6 +85,11 @@ class CBLM(LearnedBehavior):
         If > 0, the complex behavior's command may change per control cycle by at most
         this multiple of the largest change in its demonstrations (``delta_scale_``,
         rad/s), across component switches too, and it stops softly (thesis: 0).
+    settle_cycles
+        When the goal's tolerance is entered while the running component still heads
+        for a goal inside it, that component may finish (its own stop rule: at rest,
+        braking into its goal) for up to this many control cycles before the complex
+        behavior stops (64 = 1.02 s; thesis: 0, stop at once, however fast).
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -116,6 +121,7 @@ class CBLM(LearnedBehavior):
         switch_cycles: int = 8,
         start_alternatives: int = 5,
         command_rate_limit: float = 1.5,
+        settle_cycles: int = 64,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -131,6 +137,7 @@ class CBLM(LearnedBehavior):
         self.switch_cycles = switch_cycles
         self.start_alternatives = start_alternatives
         self.command_rate_limit = command_rate_limit
+        self.settle_cycles = settle_cycles
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -143,7 +150,7 @@ class CBLM(LearnedBehavior):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         check_rate_limit(self.command_rate_limit)
-        for name, low in (("switch_cycles", 1), ("start_alternatives", 0)):
+        for name, low in (("switch_cycles", 1), ("start_alternatives", 0), ("settle_cycles", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 1000:
                 raise ConfigError(f"{name} must be an integer in [{low}, 1000], got {value!r}")

@@ -72,6 +72,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._may_preempt = bool(model.preempt_uncovered)
         self._switch_cycles = int(model.switch_cycles)
         self._alternatives = int(model.start_alternatives)
+        self._settle_cycles = int(getattr(model, "settle_cycles", 0))
         # one controller per component, built now (before any motion) and renewed with
         # each intermediate goal: building one takes ~0.5 ms, too long inside a cycle
         self._children: dict[int, Any] = {
@@ -95,6 +96,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._handed_back = False
         self._insist, self._wanted = 0, -1
         self._committed = False
+        self._settling = 0
         self._limit_reset()
 
     def _plannable(self, category: int) -> int:
@@ -147,10 +149,18 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
         at_goal = within_tolerance(values, self.goal, self._tolerance)
-        if at_goal and (category in self._stop_set or self._handed_back):
+        if at_goal and self._settles_in_goal():
+            # the running component heads for a goal inside the tolerance: it finishes
+            # (at rest, braking into it) rather than the robot stopping at speed
+            self._settling += 1
+            return self._run_child(reading, category, novel, changed=False)
+        braked = self._child is not None and self._child.braked
+        if at_goal and (category in self._stop_set or self._handed_back or braked):
             # the goal category with the goal's tolerance (thesis + DESIGN §5), or a
             # component has just finished with the complex goal's tolerance holding
-            return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
+            return StepOutput(
+                _ZERO, category, novel, self._active, self._label or self.name, False, True
+            )
         self._handed_back = False
         # A finished component whose goal no longer holds (e.g. after a push) runs again.
         for comp, sub_goal in list(self._finished.items()):
@@ -167,7 +177,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
         if not segments:
             if self._child is None or self._active in self._finished:
                 if at_goal:  # nothing left to run and the goal holds
-                    return StepOutput(_ZERO, category, novel, self._active, self.name, False, True)
+                    return StepOutput(
+                        _ZERO, category, novel, self._active, self._label or self.name, False, True
+                    )
                 if not self._may_repair:  # thesis: stand still until the step limit
                     return StepOutput(_ZERO, category, novel, self._active, self.name, False, False)
                 # The plan is exhausted short of the goal (e.g. an approach drifted off
@@ -208,6 +220,21 @@ class ComplexPolicy(GoalTracking, RateLimited):
             final=segment.exit_observation in self._goal_set,
         )
         return self._delegate(segment.state, sub_goal, reading, category, novel)
+
+    def _settles_in_goal(self) -> bool:
+        """Whether the running component may finish inside the goal (``settle_cycles``)."""
+        child = self._child
+        if child is None or self._active in self._finished or child.braked:
+            return False  # a component braked to rest inside the goal is done
+        if self._settling >= self._settle_cycles:
+            return False
+        shared = {c: g for c, g in self.goal.items() if c in child.goal}
+        if not shared or not within_tolerance(child.goal, shared, self._tolerance):
+            return False
+        # braking into its goal, or heading for the goal its demonstrations stop at (a
+        # goal they only pass at speed, e.g. an approach to 0.5 m, is not one to settle in)
+        own = child.model.default_goal_
+        return bool(child.braking) or within_tolerance(child.goal, own)
 
     def _uncovered(self, values: Mapping[str, float], planned: list[int]) -> int | None:
         """A component to run first because the plan cannot close a gap of the goal.

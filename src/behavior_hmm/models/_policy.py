@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import TOLERANCES, within_tolerance
+from behavior_hmm.data._channels import CHANNELS, TOLERANCES, within_tolerance
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
 from behavior_hmm.runtime._policy import StepOutput
@@ -83,10 +83,18 @@ class GoalTracking:
         self._set_goal(self.model, goal)
 
 
+#: Cycles over which a goal channel's rate of change is measured for goal braking.
+BRAKE_RATE_CYCLES = 4
+#: Cycles a braked robot stands still short of its goal before its generators resume.
+BRAKE_HOLD_CYCLES = 8
+#: Cycles after a brake's ramp ends before a robot inside its goal's tolerance is done
+#: (the wheels' lag: it is at rest by then).
+BRAKE_SETTLE_CYCLES = 3
+
 #: A soft stop at the goal takes at most this many control cycles; a robot moving faster
 #: than that when its goal is reached (an intermediate goal that its demonstrations
 #: passed at speed) is stopped at once: reaching the goal comes before smoothness.
-SOFT_STOP_CYCLES = 4
+SOFT_STOP_CYCLES = 8
 
 
 class RateLimited:
@@ -106,6 +114,19 @@ class RateLimited:
     _last: FloatArray
     _stopping: StepOutput | None
     _label: str
+    #: ramping to rest short of the goal (goal braking): a stop then finishes the ramp
+    _braking: bool = False
+    _brake_hold: int = 0
+
+    @property
+    def braking(self) -> bool:
+        """Whether the policy is ramping its command to rest short of its goal."""
+        return self._braking
+
+    @property
+    def braked(self) -> bool:
+        """Whether goal braking has brought the robot to rest (it waits for its goal)."""
+        return self._braking and self._brake_hold >= BRAKE_SETTLE_CYCLES
 
     def _limit_reset(self) -> None:
         self._last = np.zeros(2)
@@ -121,7 +142,8 @@ class RateLimited:
             self._last = out.command
             return out
         if out.done and self._stopping is None:
-            if float(np.max(np.abs(self._last))) > SOFT_STOP_CYCLES * self._rate:
+            fast = float(np.max(np.abs(self._last))) > SOFT_STOP_CYCLES * self._rate
+            if fast and not self._braking:
                 self._last = np.zeros(2)
                 return out  # moving fast at the goal: stop now
             # the ramp down still finishes the last component's motion: keep its name
@@ -207,6 +229,11 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._rate = rate * float(model.delta_scale_) * float(model.command_scale_)
         self._limit_motion = True
         self._limit_reset()
+        self._brakes = bool(getattr(model, "goal_braking", False)) and self._rate > 0.0
+        self._x = np.zeros(len(self._channels))
+        learned = getattr(model, "command_rates_", None)
+        self._command_rates = None if learned is None else np.asarray(learned, dtype=np.float64)
+        self._brake_reset()
 
     def reset(self) -> None:
         """Forget the previous run (filters, windows, plan, efference copy)."""
@@ -220,6 +247,15 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prior = self._log_pi
         self._features.reset()
         self._limit_reset()
+        self._brake_reset()
+
+    def _brake_reset(self) -> None:
+        """Forget the braking state; index the goal channels the model reads."""
+        slots = [(self._channels.index(c), CHANNELS[c], g) for c, g in self.goal.items()]
+        self._brake_slots = [(i, spec, g, float(spec.tolerance or 0.0)) for i, spec, g in slots]
+        self._brake_history: list[FloatArray] = []
+        self._braking = False
+        self._brake_hold = 0
 
     def check_reachable(self, reading: Mapping[str, float]) -> None:
         """Raise UnreachableGoalError if no plan leads from ``reading`` to the goal."""
@@ -233,10 +269,78 @@ class SimplePolicy(GoalTracking, RateLimited):
         """
         if self._stopping is not None:  # ramping down at the goal
             return self._limited(self._stopping)
-        return self._limited(self._decide(reading))
+        out = self._decide(reading)
+        if not self._brakes or out.done:
+            return self._limited(out)
+        return self._braked(out)
+
+    def _braked(self, out: StepOutput) -> StepOutput:
+        """Goal braking: ramp to rest when arriving any later would overshoot the goal.
+
+        Each cycle the goal channels' filtered values and their rate of change (over
+        ``BRAKE_RATE_CYCLES``) predict where the robot would come to rest if its command
+        ramped to zero now at the rate limit (a linear ramp covers half the distance of
+        the current rate). When that point reaches the goal, the command ramps to zero,
+        so a generator that arrives too fast comes to rest at its goal instead of being
+        stopped at speed; the stop rule then ends the run at rest. A robot that comes to
+        rest short of its goal resumes its generators after ``BRAKE_HOLD_CYCLES``.
+        """
+        filtered = (self._x + 1.0) / self._gain + self._lo
+        history = self._brake_history
+        history.append(filtered)
+        if len(history) > BRAKE_RATE_CYCLES + 1:
+            del history[0]
+        speed = float(np.max(np.abs(self._last)))
+        if not self._braking and speed > 0.0 and len(history) > BRAKE_RATE_CYCLES:
+            if self._command_rates is not None:  # learned: the rate the command gives
+                rates = self._last @ self._command_rates
+            else:  # measured (a model file from before command_rates_ was learned)
+                rates = (filtered - history[0]) / BRAKE_RATE_CYCLES
+            self._braking = self._rest_at_goal(filtered, rates, speed / self._rate + 1.0)
+            self._brake_hold = 0
+        if not self._braking:
+            return self._limited(out)
+        u = self._last + np.clip(-self._last, -self._rate, self._rate)
+        self._last = u
+        self._label = out.component
+        if np.any(u):
+            return out._replace(command=u)
+        self._brake_hold += 1
+        values = dict(zip(self._channels, filtered.tolist(), strict=True))
+        if self._brake_hold >= BRAKE_SETTLE_CYCLES and within_tolerance(
+            values, self.goal, self._tolerance
+        ):
+            # braked to rest inside the goal's tolerance: done, whatever the category
+            self._braking = False
+            return out._replace(command=u, done=True, plan_changed=False)
+        self._braking = self._brake_hold < BRAKE_HOLD_CYCLES
+        return out._replace(command=u)
+
+    def _rest_at_goal(self, now: FloatArray, rates: FloatArray, ramp: float) -> bool:
+        """Whether a ramp to rest over ``ramp`` cycles, started now, ends at or past the goal.
+
+        ``rates``: each input's change per cycle at the current command. At least one
+        goal channel must be closing on its goal, and every closing channel would come
+        to rest at or past its goal value; every other goal channel must hold its
+        tolerance. Braking is thus a last resort: a generator that slows down into its
+        goal by itself (as the teacher does) is never cut short.
+        """
+        closing = False
+        for i, spec, goal, tol in self._brake_slots:
+            rate = float(rates[i])
+            error = spec.error(now[i], goal)
+            rest = spec.error(now[i] + rate * ramp / 2.0, goal)
+            if error * rate < 0.0:  # moving toward the goal
+                closing = True
+                if rest * error > 0.0:  # a ramp now would still end short of the goal
+                    return False
+            elif abs(rest) > tol:
+                return False
+        return closing
 
     def _decide(self, reading: Mapping[str, float]) -> StepOutput:
         x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
+        self._x = x
         self._features.push(x)
         category, novel, _ = self._live.update(x)
         if self._recognize:

@@ -115,6 +115,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "command change per cycle at most 1.5 × the demonstrations' largest; soft stop",
     ),
     Departure(
+        "goal_braking",
+        {"SBLM": {"goal_braking": False}},
+        "ramp to rest at the rate limit where the ramp ends at the goal, not arrive at speed",
+    ),
+    Departure(
         "path_self_loops",
         {"SBLM": {"path_self_loops": "keep"}, "CBLM": {"path_self_loops": "keep"}},
         "plan on c_ij / (1 − c_ii), the next different category (thesis: −log c_ij)",
@@ -143,6 +148,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "switch_cycles",
         {"CBLM": {"switch_cycles": 1}},
         "a running component is replaced only after the plan insists for 8 cycles",
+    ),
+    Departure(
+        "settle_cycles",
+        {"CBLM": {"settle_cycles": 0}},
+        "at the goal, a component heading for a goal inside it finishes at rest (≤ 64 cycles)",
     ),
     Departure(
         "start_alternatives",

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART, suggest_dcm_scale
 from behavior_hmm.data import (
+    CHANNELS,
     DEFAULT_CUTOFF_HZ,
     SENSOR_CHANNELS,
     CommandScaler,
@@ -188,6 +189,7 @@ class SBLM(LearnedBehavior):
         stop_at_rest: bool = True,
         dcm_floor: float = 0.3,
         command_rate_limit: float = 1.5,
+        goal_braking: bool = True,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -212,6 +214,7 @@ class SBLM(LearnedBehavior):
         self.stop_at_rest = stop_at_rest
         self.dcm_floor = dcm_floor
         self.command_rate_limit = command_rate_limit
+        self.goal_braking = goal_braking
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
@@ -222,7 +225,7 @@ class SBLM(LearnedBehavior):
         """Refuse parameters out of range (ConfigError) before any data is read."""
         super().check_params()
         self._checked_inputs()
-        for name in ("primitive_recognition", "stop_at_rest"):
+        for name in ("primitive_recognition", "stop_at_rest", "goal_braking"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         size = self.batch_size
@@ -344,6 +347,7 @@ class SBLM(LearnedBehavior):
         self.generators_ = gens
         self.command_scale_ = float(scaler.scale_)
         self.delta_scale_ = delta_scale
+        self.command_rates_ = command_rates(x, dataset.commands, lengths, pipeline, inputs)
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.stops_ = np.array(raw[finals], dtype=np.float64)
         self.train_data_: str | None = None  # set by the command line to the data file
@@ -482,6 +486,8 @@ class SBLM(LearnedBehavior):
                 arrays[f"{prefix}.{name}"] = arr
         if getattr(self, "stops_", None) is not None:
             arrays["stops"] = self.stops_
+        if getattr(self, "command_rates_", None) is not None:
+            arrays["command_rates"] = self.command_rates_
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
             arrays[f"{prefix}.prototypes"] = net.prototypes_
             arrays[f"{prefix}.counts"] = net.counts_
@@ -527,7 +533,7 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("pipeline channels do not match the inputs")
         _modelfile.check_pipeline(pipeline)
         names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
-        names.add("stops")
+        names.update(("stops", "command_rates"))
         extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
         if extra:
             raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
@@ -576,7 +582,50 @@ class SBLM(LearnedBehavior):
             if np.abs(stops).max() > _modelfile.MAX_ABS_VALUE:
                 raise ModelFileError("array 'stops' holds absurd values")
             model.stops_ = np.array(stops, dtype=np.float64)
+        if "command_rates" in arrays:  # files written before it was learned have none
+            rates = _modelfile.check_array(arrays, "command_rates", ndim=2)
+            if rates.shape != (2, len(inputs)):
+                raise ModelFileError("array 'command_rates' must be 2 x the number of inputs")
+            if np.abs(rates).max() > _modelfile.MAX_ABS_VALUE:
+                raise ModelFileError("array 'command_rates' holds absurd values")
+            model.command_rates_ = np.array(rates, dtype=np.float64)
         return model
+
+
+def command_rates(
+    x: np.ndarray,
+    commands: np.ndarray,
+    lengths: np.ndarray,
+    pipeline: SignalPipeline,
+    inputs: Sequence[str],
+) -> np.ndarray:
+    """How each wheel command moves each input: least squares over the demonstrations.
+
+    Row ``w`` (left, right), column ``c``: the change of filtered input ``c`` per control
+    cycle (its physical unit, an angle wrapped) per rad/s of wheel ``w``, fitted on every
+    pair of consecutive rows of an episode (the command of a row against the change to
+    the next). Goal braking predicts from it where a ramp to rest would end, from the
+    command alone rather than from a noisy measured rate.
+    """
+    norm = pipeline.normalizer
+    phys = (x + 1.0) / np.asarray(norm.gain, dtype=np.float64) + np.asarray(norm.lo)
+    keep = np.ones(len(x), dtype=bool)
+    keep[np.cumsum(lengths) - 1] = False  # no pair across an episode's end
+    change = np.diff(phys, axis=0, append=phys[-1:])
+    for j, name in enumerate(inputs):
+        spec = CHANNELS.get(name)  # a dataset's own channel (not registered) does not wrap
+        if spec is not None and spec.wraps:
+            change[:, j] = (change[:, j] + 180.0) % 360.0 - 180.0
+    u = np.asarray(commands, dtype=np.float64)[keep]
+    # in the wheels' common and differential parts, which a behavior rarely mixes (an
+    # approach barely yaws): a small ridge keeps the unexcited part's gain near zero
+    # instead of letting two nearly equal columns cancel each other with huge gains
+    basis = np.array([[0.5, -0.5], [0.5, 0.5]])  # (left, right) -> (common, differential)
+    z = u @ basis
+    gram = z.T @ z
+    ridge = 1e-3 * max(float(np.trace(gram)), 1e-12)
+    coef = np.linalg.solve(gram + ridge * np.eye(2), z.T @ change[keep])
+    return np.asarray(basis @ coef, dtype=np.float64)
 
 
 def _cobart_params(net: CobART) -> dict[str, Any]:

@@ -1,0 +1,136 @@
+"""Goal braking (SBLM ``goal_braking``) and settling (CBLM ``settle_cycles``).
+
+A generator that arrives at its goal too fast is the situation goal braking exists for;
+here it is made certain by replacing the approach generator's output with a constant
+cruise command, and the robot is a one-dimensional point that drives toward the object
+exactly as commanded (no simulator): what the policy does is all that is tested.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from behavior_hmm.data import DISTANCE_TOLERANCE_M
+from behavior_hmm.evaluate._metrics import command_jump
+from behavior_hmm.models import CBLM, SBLM
+from behavior_hmm.teach import collect
+
+WHEEL_RADIUS_M = 0.0205
+PERIOD_S = 0.016
+
+
+@pytest.fixture(scope="module")
+def approach() -> SBLM:
+    data = collect(
+        "approach", [{"distance": x} for x in np.arange(0.1, 1.01, 0.15)], sim="kinematic"
+    )
+    return SBLM(inputs=("distance", "angle"), epochs=30).fit(data)
+
+
+def _cruise(model: SBLM, braking: bool, cruise: float) -> tuple[np.ndarray, list[float], bool]:
+    """Drive a point robot from 0.15 m with the policy's generator stuck at ``cruise``."""
+    model.set_params(goal_braking=braking)
+    policy = model.policy({"distance": 0.0})
+    policy._gens = _Stuck(cruise)  # a generator that never slows down by itself
+    d, u = 0.15, np.zeros(2)
+    commands, distances, done = [], [], False
+    for _ in range(600):
+        v = WHEEL_RADIUS_M * float(np.mean(u))
+        out = policy.step(
+            {"distance": d, "angle": 0.0, "linear_velocity": v, "angular_velocity": 0.0}
+        )
+        if out.done:
+            done = True
+            commands.append(np.zeros(2))
+            break
+        u = out.command
+        commands.append(u)
+        d = max(d - WHEEL_RADIUS_M * float(np.mean(u)) * PERIOD_S, -0.05)
+        distances.append(d)
+    return np.array(commands), distances, done
+
+
+class _Stuck:
+    """Stands in for a model's motion generators: the same output for any input."""
+
+    def __init__(self, value: float) -> None:
+        self.value = np.array([value, value])
+
+    def predict_one(self, x: Any, state: int) -> np.ndarray:
+        return self.value.copy()
+
+
+def test_braking_ramps_to_rest_inside_the_goal(approach: SBLM) -> None:
+    cruise = 0.6  # normalized: 0.6 x the demonstrations' largest command
+    commands, distances, done = _cruise(approach, True, cruise)
+    policy = approach.policy({"distance": 0.0})
+    rate = policy._rate
+    assert rate > 0
+    assert done, "the braked robot must stop at its goal"
+    # never a change larger than the rate limit, the stop included
+    assert command_jump(commands) <= rate * (1 + 1e-9)
+    # at rest inside the goal's tolerance and never through the object
+    assert abs(distances[-1]) <= DISTANCE_TOLERANCE_M
+    assert min(distances) > -DISTANCE_TOLERANCE_M
+    # it was cruising, then ramped down at the rate limit
+    top = cruise * approach.command_scale_
+    assert np.max(commands) == pytest.approx(top)
+    ramp = np.diff(commands[:, 0])[np.argmax(commands[:, 0]) :]
+    assert np.all(ramp <= 1e-12) and np.min(ramp) == pytest.approx(-rate)
+
+
+def test_without_braking_the_robot_arrives_at_speed(approach: SBLM) -> None:
+    commands, distances, done = _cruise(approach, False, 0.6)
+    # the stuck generator keeps cruising through the goal (into the object)
+    assert min(distances) < -DISTANCE_TOLERANCE_M
+    assert np.max(commands[-5:]) == pytest.approx(0.6 * approach.command_scale_) or done
+
+
+def test_braking_is_a_parameter_of_the_presets() -> None:
+    from behavior_hmm.models._presets import preset_params
+
+    assert preset_params("default", "SBLM")["goal_braking"] is True
+    assert preset_params("thesis", "SBLM")["goal_braking"] is False
+    assert preset_params("default", "CBLM")["settle_cycles"] == 64
+    assert preset_params("thesis", "CBLM")["settle_cycles"] == 0
+
+
+def test_complex_behavior_finishes_at_rest(kinematic_env: Any) -> None:
+    """Turn & approach whose approach arrives too fast: stopped at rest, not at speed."""
+    from behavior_hmm.runtime import run_policy
+
+    turn = SBLM(inputs=("angle",), epochs=30).fit(
+        collect("turn", [{"angle": a} for a in range(-170, 181, 40)], sim="kinematic")
+    )
+    approach = SBLM(inputs=("distance", "angle"), epochs=30).fit(
+        collect("approach", [{"distance": x} for x in np.arange(0.1, 1.01, 0.15)], sim="kinematic")
+    )
+    starts = [{"angle": a, "distance": x} for a in (-120.0, 0.0, 80.0) for x in (0.3, 0.7)]
+    data = collect("turn-approach", starts, sim="kinematic")
+    jumps = {}
+    for settle in (64, 0):
+        for component in (turn, approach):
+            component.set_params(goal_braking=settle > 0)
+        policy = CBLM([turn, approach], settle_cycles=settle).fit(data).policy(None)
+        policy._children[1]._gens = _Stuck(0.4)  # an approach that never slows down
+        trace = run_policy(policy, kinematic_env, start={"angle": 0.0, "distance": 0.3}, seed=0)
+        assert trace.goal_reached and "approach" in trace.component
+        jumps[settle] = command_jump(trace.command_array) / policy._children[1]._rate
+    assert jumps[64] <= 1.0 + 1e-9
+    assert jumps[0] > 4.0  # without either, the robot is stopped at speed
+
+
+def test_command_rates_are_the_robots_kinematics(approach: SBLM, tmp_path: Any) -> None:
+    """The learned command-to-rate gains match the robot: d(distance) = -r dt (l + r) / 2."""
+    from behavior_hmm.runtime import Robot
+    from behavior_hmm.sim import make_env
+
+    spec = Robot(make_env("kinematic")).spec
+    per_wheel = -spec.wheel_radius * PERIOD_S / 2.0  # m per cycle per rad/s of one wheel
+    distance = approach.command_rates_[:, 0]
+    assert distance == pytest.approx([per_wheel, per_wheel], rel=0.15)
+    approach.save(tmp_path / "a.bhmm")
+    assert np.array_equal(SBLM.load(tmp_path / "a.bhmm").command_rates_, approach.command_rates_)
