@@ -165,6 +165,8 @@ def collect_with_progress(
     noise: float,
     env: Any = None,
     env_name: str | None = None,
+    corrections: int = 0,
+    correction_noise: float | None = None,
 ) -> Any:
     """Run the teacher from every start behind a progress bar (one final line when not a TTY)."""
     from behavior_hmm.teach import collect
@@ -175,6 +177,9 @@ def collect_with_progress(
         def report(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
+        options: dict[str, Any] = {"corrections": corrections}
+        if correction_noise is not None:
+            options["correction_noise"] = correction_noise
         return collect(
             behavior,
             starts,
@@ -184,6 +189,7 @@ def collect_with_progress(
             progress=report,
             env=env,
             env_name=env_name,
+            **options,
         )
 
 

@@ -134,11 +134,27 @@ def collect(
     noise: NoiseOption = 0.0,
     env: EnvOption = None,
     env_kwargs: EnvKwargsOption = None,
+    corrections: Annotated[
+        int,
+        typer.Option(
+            help="Corrective demonstrations per start, after the nominal ones: the teacher "
+            "corrects a smooth disturbance of its wheels (DART-style)"
+        ),
+    ] = 0,
+    correction_noise: Annotated[
+        float | None,
+        typer.Option(
+            help="Sigma of that disturbance, as a fraction of the top wheel speed "
+            "(default: behavior_hmm.teach.DEFAULT_CORRECTION_NOISE)"
+        ),
+    ] = None,
 ) -> None:
     """Record s-curve demonstrations of a behavior into a Parquet dataset.
 
     Everything is checked before the first episode runs; on any error nothing is
-    written and an existing OUT is left as it was.
+    written and an existing OUT is left as it was. With --corrections K each start is
+    also demonstrated K more times while a smooth disturbance pushes the wheels off the
+    teacher's command and the teacher corrects it (the dataset records its command).
 
     Example: behavior-hmm collect turn --sim kinematic -o data/turn.parquet
     """
@@ -166,6 +182,10 @@ def collect(
         )
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
+    if corrections < 0:
+        raise ConfigError(f"--corrections must be >= 0, got {corrections}")
+    if correction_noise is not None and not 0.0 < correction_noise <= 0.5:
+        raise ConfigError(f"--correction-noise must lie in (0, 0.5], got {correction_noise:g}")
     check_outputs({"--starts": starts}, {"-o": out})
     robot, robot_name = open_env(sim, env, env_kwargs) if env is not None else (None, None)
     far = math.inf if robot is not None else None
@@ -188,7 +208,9 @@ def collect(
             ) from None
     log.debug("%d starts of %s on %s", len(chosen), behavior, robot_name or sim)
     try:
-        dataset = collect_with_progress(behavior, chosen, sim, seed, noise, robot, robot_name)
+        dataset = collect_with_progress(
+            behavior, chosen, sim, seed, noise, robot, robot_name, corrections, correction_noise
+        )
     except DatasetError as err:  # the recorded data failed validation: say which data
         hint = f"; nothing written to {out}" + (" (try a smaller --noise)" if noise else "")
         raise DatasetError(

@@ -288,14 +288,23 @@ class SBLM(LearnedBehavior):
         pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
-        prim_params = self._cobart_overrides(self.primitive_params, x, lengths)
-        obs_params = self._cobart_overrides(self.observation_params, x, lengths)
-        prim = CobART.motion_primitives(**prim_params).fit(x, lengths)
-        prim = prim.compacted(x, lengths)
-        obs = CobART.observations(**obs_params).fit(x, lengths)
-        obs = obs.compacted(x, lengths)
-        states = prim.labels_
+        # Corrective demonstrations (collect --corrections) teach the generators how to
+        # recover; the categories, the Behavior-HMM and the command scales come from the
+        # nominal demonstrations alone, so the plan and the success rate's normalization
+        # are those of the behavior as demonstrated.
+        nominal = nominal_rows(dataset)
+        x_nom = x[nominal]
+        lengths_nom = lengths[nominal_episodes(dataset)]
+        prim_params = self._cobart_overrides(self.primitive_params, x_nom, lengths_nom)
+        obs_params = self._cobart_overrides(self.observation_params, x_nom, lengths_nom)
+        prim = CobART.motion_primitives(**prim_params).fit(x_nom, lengths_nom)
+        prim = prim.compacted(x_nom, lengths_nom)
+        obs = CobART.observations(**obs_params).fit(x_nom, lengths_nom)
+        obs = obs.compacted(x_nom, lengths_nom)
+        nominal_states = prim.labels_
         observations = obs.labels_
+        # every row's primitive: the nominal rows' own, the corrective rows' best match
+        states = nominal_states if nominal.all() else prim.predict(x, lengths)
         self.inputs_ = inputs
         self.primitives_ = prim
         hmm = BehaviorHMM(
@@ -304,12 +313,12 @@ class SBLM(LearnedBehavior):
             counting=cast(Counting, self.counting),
             smoothing=self.smoothing,
             path_self_loops=cast(PathSelfLoops, self.path_self_loops),
-        ).fit(states, observations, lengths)
-        scaler = CommandScaler().fit(dataset.commands)
-        y = scaler.transform(dataset.commands)
+        ).fit(nominal_states, observations, lengths_nom)
+        scaler = CommandScaler().fit(dataset.commands[nominal])
+        y = np.clip(scaler.transform(dataset.commands), -1.0, 1.0)
         prev = command_features(y, lengths, 1)
         step = y - prev
-        delta_scale = float(np.max(np.abs(step))) or 1.0
+        delta_scale = float(np.max(np.abs(step[nominal]))) or 1.0
         layout = self.feature_layout(len(inputs), int(prim.window), delta_scale)
         features = layout.offline(x, y, lengths)
         target = y if self.generator_output == "command" else np.clip(step / delta_scale, -1, 1)
@@ -355,7 +364,7 @@ class SBLM(LearnedBehavior):
         self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
-        self.train_states_ = states
+        self.train_states_ = nominal_states
         self.train_observations_ = observations
         return self
 
@@ -590,6 +599,20 @@ class SBLM(LearnedBehavior):
                 raise ModelFileError("array 'command_rates' holds absurd values")
             model.command_rates_ = np.array(rates, dtype=np.float64)
         return model
+
+
+def nominal_episodes(dataset: Dataset) -> NDArray[np.bool_]:
+    """Which episodes are nominal demonstrations (not listed in ``corrective_episodes``)."""
+    corrective = dataset.metadata.get("corrective_episodes") or []
+    keep = ~np.isin(np.asarray(dataset.episode_ids), np.asarray(corrective, dtype=np.int64))
+    if not keep.any():
+        raise ConfigError("the dataset holds corrective demonstrations only; no nominal ones")
+    return np.asarray(keep, dtype=bool)
+
+
+def nominal_rows(dataset: Dataset) -> NDArray[np.bool_]:
+    """Rows of the nominal demonstrations."""
+    return np.repeat(nominal_episodes(dataset), dataset.lengths)
 
 
 def command_rates(

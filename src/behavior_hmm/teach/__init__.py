@@ -10,7 +10,7 @@ from behavior_hmm.teach._behaviors import (
     grid,
     register_behavior,
 )
-from behavior_hmm.teach._collect import collect, complete_start
+from behavior_hmm.teach._collect import DEFAULT_CORRECTION_NOISE, collect, complete_start
 from behavior_hmm.teach._demonstrator import (
     Demonstration,
     Teacher,
@@ -29,6 +29,7 @@ from behavior_hmm.teach._profiles import DISTANCE_LIMITS, TURN_LIMITS, Limits, S
 
 __all__ = [
     "BEHAVIORS",
+    "DEFAULT_CORRECTION_NOISE",
     "DISTANCE_LIMITS",
     "RETREAT_DISTANCE",
     "TURN_DISTANCE",

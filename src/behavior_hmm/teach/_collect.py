@@ -13,6 +13,9 @@ from behavior_hmm.teach._grids import check_start, default_starts
 
 Progress = Callable[[int, int], None]
 
+#: Default sigma of a corrective demonstration's disturbance (x the top wheel speed).
+DEFAULT_CORRECTION_NOISE = 0.08
+
 
 def complete_start(behavior: str, start: Start, max_distance: float | None = None) -> Start:
     """Fill a start's missing channel with the behavior's default (turn: 0.5 m, others 0 deg).
@@ -37,6 +40,8 @@ def collect(
     progress: Progress | None = None,
     env: Any = None,
     env_name: str | None = None,
+    corrections: int = 0,
+    correction_noise: float = DEFAULT_CORRECTION_NOISE,
 ) -> Dataset:
     """Demonstrate ``behavior`` from every start and return the dataset.
 
@@ -61,6 +66,14 @@ def collect(
         ``make_env(sim)``; its starts may reach beyond our arena.
     env_name
         How the env was named (``--env``), recorded in the metadata.
+    corrections
+        Corrective demonstrations per start, after the nominal ones (DART-style: the
+        teacher corrects a smooth disturbance of its wheels, see
+        :meth:`Teacher.demonstrate`); their episode ids are listed in the metadata
+        (``corrective_episodes``), and a model takes its command scales from the nominal
+        episodes only, so the success rate's normalization does not change.
+    correction_noise
+        The disturbance's sigma as a fraction of the robot's top wheel speed.
     """
     from behavior_hmm.runtime import Robot
     from behavior_hmm.sim import make_env
@@ -70,6 +83,10 @@ def collect(
         raise ConfigError(f"--noise must be >= 0, got {noise}")
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
+    if isinstance(corrections, bool) or not isinstance(corrections, int) or corrections < 0:
+        raise ConfigError(f"--corrections must be an integer >= 0, got {corrections!r}")
+    if not 0.0 < correction_noise <= 0.5:
+        raise ConfigError(f"--correction-noise must lie in (0, 0.5], got {correction_noise:g}")
     chosen = list(default_starts(behavior) if starts is None else starts)
     if not chosen:
         raise ConfigError("no starts to collect")
@@ -89,20 +106,26 @@ def collect(
             "declare env.unwrapped.channel_ranges (docs/robots.md)"
         )
     episodes = []
-    for i, start in enumerate(full):
+    runs = [(start, seed + i, 0.0) for i, start in enumerate(full)]
+    for k in range(1, corrections + 1):  # corrective copies draw seeds past the nominal ones
+        runs += [
+            (start, seed + k * len(full) + i, correction_noise) for i, start in enumerate(full)
+        ]
+    for i, (start, episode_seed, perturbation) in enumerate(runs):
         demo = tutor.demonstrate(
             behavior,
             start["angle"],
             start["distance"],
             goal_distance=start.get("goal_distance"),
-            seed=seed + i,
+            seed=episode_seed,
             noise=noise,
+            perturbation=perturbation,
         )
         columns: dict[str, Any] = dict(demo.as_arrays())
         columns["episode"] = i
         episodes.append(columns)
         if progress is not None:
-            progress(i + 1, len(full))
+            progress(i + 1, len(runs))
     params = getattr(env.unwrapped, "params", None)
     metadata = {
         "behavior": behavior,
@@ -121,6 +144,9 @@ def collect(
         metadata["channels"] = [
             ChannelSpec(c, str(units.get(c, "1")), robot.ranges[c]).to_metadata() for c in extras
         ]
+    if corrections:
+        metadata["corrections"] = {"copies": corrections, "noise": correction_noise}
+        metadata["corrective_episodes"] = list(range(len(full), len(runs)))
     if derived:  # a robot without velocity sensors: estimated from its positions
         metadata["derived"] = derived
     return Dataset.from_episodes(episodes, metadata=metadata)

@@ -170,6 +170,7 @@ class Teacher:
         self._dt = self.robot.control_period
         self._dist = self.robot.channels.index("distance")
         self._angle = self.robot.channels.index("angle")
+        self._disturbance: _Disturbance | None = None
 
     def demonstrate(
         self,
@@ -180,9 +181,24 @@ class Teacher:
         goal_distance: float | None = None,
         seed: int | None = None,
         noise: float | None = None,
+        perturbation: float = 0.0,
     ) -> Demonstration:
-        """Run one demonstration from a start (deg, m); raises if the goal is not reached."""
+        """Run one demonstration from a start (deg, m); raises if the goal is not reached.
+
+        ``perturbation`` > 0 makes a *corrective* demonstration (DART-style): while the
+        teacher runs its phases, the wheels receive its command plus a smooth random
+        disturbance (an Ornstein-Uhlenbeck process with a 0.5 s correlation time on the
+        wheels' common and differential parts, sigma = ``perturbation`` x the robot's
+        top wheel speed, drawn from ``seed``); the teacher keeps correcting in closed
+        loop, and the dataset records its own command, so the generators see how to
+        recover from states the nominal demonstrations never visit.
+        """
         spec = behavior_spec(behavior)
+        self._disturbance = (
+            _Disturbance(float(perturbation) * self._max_wheel, self._dt, seed)
+            if perturbation > 0
+            else None
+        )
         phases = spec.phases(float(angle), float(distance), goal_distance)
         options: dict[str, Any] = {"angle": float(angle), "distance": float(distance)}
         if noise:
@@ -250,7 +266,11 @@ class Teacher:
             demo.sensors.append(obs)
             demo.commands.append((left, right))
             demo.behavior.append(phase.name)
-            obs, true, _ = self.robot.step(np.array([left, right]))
+            command = np.array([left, right])
+            if self._disturbance is not None and t_phase < profile.duration:
+                # disturbed while the profile runs; the teacher settles undisturbed
+                command = self._disturbance.applied(command, self._max_wheel)
+            obs, true, _ = self.robot.step(command)
             step += 1
             k += 1
 
@@ -301,3 +321,25 @@ class Teacher:
                     f"teacher missed the {behavior} goal from {start}: "
                     f"final distance {distance_now:.4f} m, goal {goal:g} m"
                 )
+
+
+#: Correlation time (s) of a corrective demonstration's disturbance.
+DISTURBANCE_TIME_S: Final[float] = 0.5
+
+
+class _Disturbance:
+    """A smooth random disturbance of the wheel commands (see ``Teacher.demonstrate``)."""
+
+    def __init__(self, sigma: float, period: float, seed: int | None) -> None:
+        self._sigma = sigma
+        self._decay = math.exp(-period / DISTURBANCE_TIME_S)
+        self._rng = np.random.default_rng([0x0DA27, 0 if seed is None else int(seed)])
+        self._state = np.zeros(2)  # common, differential (rad/s)
+
+    def applied(self, command: np.ndarray, limit: float) -> np.ndarray:
+        """``command`` plus the disturbance's next value, within the motor limit."""
+        a = self._decay
+        self._state = a * self._state + math.sqrt(1.0 - a * a) * self._rng.normal(0.0, 1.0, 2)
+        common, differential = self._sigma * self._state
+        out = command + np.array([common - differential, common + differential])
+        return np.clip(out, -limit, limit)

@@ -1,0 +1,97 @@
+"""Corrective (DART-style) demonstrations: ``collect(..., corrections=K)``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from behavior_hmm.errors import ConfigError
+from behavior_hmm.models import SBLM
+from behavior_hmm.teach import collect
+
+STARTS = [{"distance": x} for x in (0.3, 0.6, 0.9)]
+
+
+@pytest.fixture(scope="module")
+def corrected():  # type: ignore[no-untyped-def]
+    return collect("approach", STARTS, sim="kinematic", corrections=1, correction_noise=0.08)
+
+
+def test_corrective_copies_follow_the_nominal_ones(corrected) -> None:  # type: ignore[no-untyped-def]
+    nominal = collect("approach", STARTS, sim="kinematic")
+    assert len(corrected) == 2 * len(nominal)
+    assert corrected.metadata["corrective_episodes"] == [3, 4, 5]
+    assert corrected.metadata["corrections"] == {"copies": 1, "noise": 0.08}
+    eps = list(corrected.episodes())
+    for i, ep in enumerate(nominal.episodes()):
+        assert np.array_equal(eps[i].commands, ep.commands)  # nominal ones unchanged
+        # the corrective copy starts in the same place but drifts, and the teacher corrects
+        copy = eps[i + 3]
+        assert copy.to_dict()["distance"][0] == pytest.approx(ep.to_dict()["distance"][0])
+        n = min(len(copy.commands), len(ep.commands))
+        assert np.abs(copy.commands[:n] - ep.commands[:n]).max() > 0.05
+        assert np.abs(copy.to_dict()["angle"]).max() > 5 * np.abs(ep.to_dict()["angle"]).max()
+    # the same seed gives the same demonstrations
+    again = collect("approach", STARTS, sim="kinematic", corrections=1, correction_noise=0.08)
+    assert all(
+        np.array_equal(a.commands, b.commands)
+        for a, b in zip(again.episodes(), corrected.episodes(), strict=True)
+    )
+
+
+def test_corrections_train_the_generators_not_the_plan(corrected) -> None:  # type: ignore[no-untyped-def]
+    nominal = collect("approach", STARTS, sim="kinematic")
+    plain = SBLM(inputs=("distance", "angle"), epochs=5).fit(nominal)
+    model = SBLM(inputs=("distance", "angle"), epochs=5).fit(corrected)
+    # categories, Behavior-HMM and command scales: the nominal demonstrations'
+    assert np.array_equal(model.primitives_.prototypes_, plain.primitives_.prototypes_)
+    assert np.array_equal(model.hmm_.log_A_, plain.hmm_.log_A_)
+    assert model.command_scale_ == plain.command_scale_
+    assert model.delta_scale_ == plain.delta_scale_
+    # the generators saw more rows: the corrective ones
+    assert model.generators_.n_train_.sum() > plain.generators_.n_train_.sum()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"corrections": -1}, "--corrections"),
+        ({"corrections": 1, "correction_noise": 0.0}, "--correction-noise"),
+    ],
+)
+def test_bad_corrections_are_refused(options, message) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(ConfigError, match=message):
+        collect("approach", STARTS, sim="kinematic", **options)
+
+
+def test_collect_command_takes_corrections(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from typer.testing import CliRunner
+
+    from behavior_hmm import data
+    from behavior_hmm.cli import app
+
+    out = tmp_path / "a.parquet"
+    runner = CliRunner()
+    res = runner.invoke(
+        app, ["collect", "approach", "--sim", "kinematic", "--corrections", "-1", "-o", str(out)]
+    )
+    assert res.exit_code == 2 and "--corrections" in res.output and not out.exists()
+    starts = tmp_path / "s.csv"
+    starts.write_text("distance\n0.4\n0.8\n")
+    res = runner.invoke(
+        app,
+        [
+            "collect",
+            "approach",
+            "--sim",
+            "kinematic",
+            "--starts",
+            str(starts),
+            "--corrections",
+            "2",
+            "-o",
+            str(out),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    assert data.read(out).metadata["corrective_episodes"] == [2, 3, 4, 5]
