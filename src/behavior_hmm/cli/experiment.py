@@ -40,7 +40,6 @@ from behavior_hmm.cli._common import (
     make_run_executor,
     model_params,
     open_env,
-    progress,
     user_errors,
     with_progress,
 )
@@ -286,12 +285,17 @@ def experiment_faults(
             "speed_limit, push_bearing, push_distance, dropout"
         ),
     ] = None,
+    workers: WorkersOption = None,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
 ) -> None:
     """Fault sweep: goal reached and success rate of the default models under faults.
 
     Sensor noise, wheel mismatch, motor lag, wheel-speed limits, pushes (bearing in
     deg, distance in m) and NaN dropouts, one at a time, from each task's 15 test
     starts. Writes results.json, table.md, faults_goal.png and faults_success.png.
+    The collections, fits and cells run as independent tasks (--workers, --executor),
+    with the same results whoever runs them.
 
     Example: behavior-hmm experiment faults --sim kinematic --task turn --fault noise
     """
@@ -308,15 +312,16 @@ def experiment_faults(
     for name in fault or []:
         fault_kind(name)
     check_outputs({}, {}, folders={"-o": out})
-    with progress() as bar:
-        job = bar.add_task(f"experiment faults ({sim})", total=None)
-        results = run_faults(
-            sim=sim,
-            seed=seed,
-            tasks=task or None,
-            faults=fault or None,
-            progress=lambda d, t: bar.update(job, completed=d, total=t),
-        )
+    runner = make_run_executor(executor, workers, address)
+    results = with_progress(
+        f"experiment faults ({sim})",
+        run_faults,
+        executor=runner,
+        sim=sim,
+        seed=seed,
+        tasks=task or None,
+        faults=fault or None,
+    )
     with all_or_none():  # every file of the report, or none
         table = write_faults_report(results, out)
     typer.echo(table)
@@ -331,6 +336,9 @@ def experiment_categorization(
     seed: SeedOption = 0,
 ) -> None:
     """Thesis §6.1: turn primitives at vigilance 0.85 and 0.75 (table 6.1, figs 6.1-6.4).
+
+    Runs in this process (no --workers): its independent work, one CobART fit per
+    vigilance, takes well under a second, less than starting worker processes.
 
     Example: behavior-hmm experiment categorization --sim kinematic -o results/cat
     """
@@ -362,11 +370,16 @@ def experiment_generators(
     sim: SimOption = "mujoco",
     epochs: Annotated[int, typer.Option(help="Epochs per setting")] = 100,
     seed: SeedOption = 0,
+    workers: WorkersOption = None,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
 ) -> None:
     """Thesis §6.2 and appendix A: generator training sweeps (figs 6.5-6.7, A.1).
 
     One representative turn primitive (the robot moving, its commands changing),
-    incremental training; test error against iterations (samples presented).
+    incremental training; test error against iterations (samples presented). Each
+    hidden layout's networks train as one independent task (--workers, --executor),
+    with the same results whoever runs them.
 
     Example: behavior-hmm experiment generators --sim kinematic --epochs 20 -o results/gen
     """
@@ -384,6 +397,7 @@ def experiment_generators(
     if epochs < 1:
         raise ConfigError(f"--epochs must be an integer >= 1, got {epochs}")
     check_outputs({}, {}, folders={"-o": out})
+    runner = make_run_executor(executor, workers, address)
     data = collect("turn", sim=sim, seed=seed)
     x = SignalPipeline(("angle",)).transform(data)
     primitives = CobART.motion_primitives().fit(x, data.lengths).labels_
@@ -394,16 +408,19 @@ def experiment_generators(
     windows2 = make_windows(x2, data.lengths, 10)
     y = CommandScaler().fit(data.commands).transform(data.commands)
     with all_or_none():  # the summary and every figure, or none
-        report = run_generator_sweeps(
-            windows,
-            y,
-            primitives,
-            out,
+        report = with_progress(
+            f"experiment generators ({sim})",
+            run_generator_sweeps,
+            X=windows,
+            Y=y,
+            primitives=primitives,
+            out_dir=out,
             epochs=epochs,
             X_two_inputs=windows2,
             inputs_label="angle",
             two_inputs_label="angle, angular velocity",
             random_state=seed,
+            executor=runner,
         )
         figures = plot_generator_sweeps(report, out)
     chosen = report["selection"]["chosen"]

@@ -23,21 +23,25 @@ import typer
 
 from behavior_hmm.cli._common import (
     CONTEXT_SETTINGS,
+    AddressOption,
     ConfigOption,
     EnvKwargsOption,
     EnvOption,
+    ExecutorOption,
     NoiseOption,
     PresetOption,
     SeedOption,
     SetOption,
     SimOption,
     VideoBackendOption,
+    WorkersOption,
     check_noise,
     check_seed,
     check_sim,
     check_video,
     load_model,
     log,
+    make_run_executor,
     model_params,
     open_env,
     parse_assignments,
@@ -329,13 +333,18 @@ def evaluate(
         typer.Option(help="Folder for one video per run, case_NN.mp4 (video extra)"),
     ] = None,
     video_backend: VideoBackendOption = "matplotlib",
+    workers: WorkersOption = None,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
 ) -> None:
     """Score a model (and baselines) against the teacher from test starts.
 
     Every start (and its goal) is checked before the first case runs; --json and
     --report are written together, or neither is. Each case also records the largest
     command change in one period against the teacher's (command_jump_ratio) and the
-    primitive (SBLM) or component (CBLM) switches.
+    primitive (SBLM) or component (CBLM) switches. The start cases run as independent
+    tasks (--workers, --executor), with the same results whoever runs them; with --env
+    they run in this process.
 
     Example: behavior-hmm evaluate models/turn.bhmm --push at=0.5,angle=20 --json t.json
     """
@@ -369,6 +378,7 @@ def evaluate(
             else scaled_starts(test_starts(model.behavior_), robot)
         )
     _check_cases(model, chosen, starts, arena=robot is None)
+    runner = make_run_executor(executor, workers, address)
     baselines = _baselines(baseline or [], model, data, seed)
     with progress() as bar:
         task = bar.add_task(f"evaluate {model.behavior_} ({robot_name})", total=None)
@@ -383,6 +393,7 @@ def evaluate(
             progress=lambda d, t: bar.update(task, completed=d, total=t),
             keep_traces=report is not None or videos is not None,
             push=pushed,
+            executor=runner,
         )
     traces = result.pop("_traces", None)
     written: dict[int, Path] = {}

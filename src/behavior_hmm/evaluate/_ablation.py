@@ -141,41 +141,6 @@ def _fit_cblm(
     return model, time.perf_counter() - t0
 
 
-class _Models:
-    """Fitted models of one seed, in this process, shared by the rows whose parameters match.
-
-    For callers that want one model at a time (``experiment faults``);
-    :func:`run_ablation` fits the same models as executor tasks.
-    """
-
-    def __init__(self, sim: str, seed: int) -> None:
-        self.sim = sim
-        self.seed = seed
-        self._data: dict[str, Any] = {}
-        self._fitted: dict[tuple[Any, ...], tuple[Any, float]] = {}
-
-    def data(self, behavior: str) -> Any:
-        if behavior not in self._data:
-            self._data[behavior] = _collect_task((behavior, self.sim, self.seed))
-        return self._data[behavior]
-
-    def simple(self, item: AblationTask, params: Mapping[str, Any]) -> tuple[Any, float]:
-        key = ("SBLM", item.behavior, item.inputs, _frozen(params))
-        if key not in self._fitted:
-            dataset = self.data(item.behavior)
-            self._fitted[key] = _fit_sblm(item.inputs, params, dataset, self.seed)
-        return self._fitted[key]
-
-    def complex(self, item: AblationTask, row: AblationRow) -> tuple[Any, float]:
-        components = [self.simple(task(name), row.params("SBLM"))[0] for name in item.components]
-        params = row.params("CBLM")
-        key = ("CBLM", item.behavior, item.inputs, _frozen(params), _frozen(row.params("SBLM")))
-        if key not in self._fitted:
-            dataset = self.data(item.behavior)
-            self._fitted[key] = _fit_cblm(components, item.inputs, params, dataset, self.seed)
-        return self._fitted[key]
-
-
 def run_ablation(
     *,
     sim: str = "mujoco",

@@ -32,8 +32,16 @@ from numpy.typing import NDArray
 
 from behavior_hmm.data import SENSOR_CHANNELS
 from behavior_hmm.errors import ConfigError
-from behavior_hmm.evaluate._ablation import ABLATION_TASKS, AblationRow, AblationTask, _Models
+from behavior_hmm.evaluate._ablation import (
+    ABLATION_TASKS,
+    AblationRow,
+    AblationTask,
+    _fit_cblm,
+    _sblm_task,
+)
 from behavior_hmm.evaluate._ablation import task as ablation_task
+from behavior_hmm.evaluate._executor import Executor, SerialExecutor
+from behavior_hmm.evaluate._experiments import _collect_task
 from behavior_hmm.evaluate._protocol import evaluate_model
 
 Progress = Callable[[int, int], None]
@@ -321,8 +329,15 @@ def run_faults(
     levels: Mapping[str, Sequence[Level]] | None = None,
     n_starts: int | None = None,
     progress: Progress | None = None,
+    executor: Executor | None = None,
 ) -> dict[str, Any]:
     """Train the default-preset model of each task and evaluate it under every fault level.
+
+    The work runs through ``executor`` in four stages of independent tasks: collect each
+    behavior's demonstrations; fit every SBLM (a task's own, and a complex task's
+    components, each once); fit every CBLM; then every cell (each task's no-fault
+    baseline and each fault level), one task per cell. Every seed is the run's, so the
+    results are the same whatever executor runs them.
 
     Parameters
     ----------
@@ -337,7 +352,9 @@ def run_faults(
     n_starts
         Evaluate from only the first ``n_starts`` test starts (default: all 15).
     progress
-        Called with (cells done, cells in all).
+        Called with (tasks done, tasks in all): collections, fits and cells.
+    executor
+        Runs the tasks (default: this process, one after another).
 
     Returns
     -------
@@ -346,55 +363,83 @@ def run_faults(
         and per task ``baseline`` (the no-fault evaluation, a plain ``evaluate_model``)
         and ``cells`` (:func:`evaluate_fault` per fault and level).
     """
+    from behavior_hmm.teach import test_starts
+
+    run = executor or SerialExecutor()
     chosen = [ablation_task(n) for n in (tasks or [t.name for t in ABLATION_TASKS])]
     kinds = [fault_kind(n) for n in (faults or [k.name for k in FAULTS])]
     own = {fault_kind(k).name: tuple(v) for k, v in (levels or {}).items()}
     plan = [(k, own.get(k.name, k.levels)) for k in kinds]
     if n_starts is not None and n_starts < 1:
         raise ConfigError(f"n_starts must be >= 1, got {n_starts}")
-    total = len(chosen) * (1 + sum(len(lv) for _, lv in plan))
-    models = _Models(sim, seed)
     row = AblationRow("default")
-    done = 0
+    # the simple tasks whose SBLMs are fitted: each task's own, or a complex task's
+    # components (shared with a simple task of the same name), each once
+    parts: dict[str, AblationTask] = {}
+    for item in chosen:
+        for part in [ablation_task(n) for n in item.components] or [item]:
+            parts.setdefault(part.name, part)
+    behaviors = sorted({p.behavior for p in parts.values()} | {i.behavior for i in chosen})
+    complex_items = [item for item in chosen if item.components]
+    n_cells = 1 + sum(len(lv) for _, lv in plan)
+    total = len(behaviors) + len(parts) + len(complex_items) + len(chosen) * n_cells
+    offset = 0
 
-    def tick() -> None:
-        nonlocal done
-        done += 1
+    def advance(done: int, _: int) -> None:
         if progress is not None:
-            progress(done, total)
+            progress(offset + done, total)
 
-    from behavior_hmm.teach import test_starts
+    data_tasks = [(b, sim, seed) for b in behaviors]
+    datasets = dict(zip(behaviors, run.map(_collect_task, data_tasks, advance), strict=True))
+    offset += len(data_tasks)
+    sblm = row.params("SBLM")
+    fit_tasks = [(p.inputs, sblm, datasets[p.behavior], seed) for p in parts.values()]
+    fitted = [model for model, _ in run.map(_sblm_task, fit_tasks, advance)]
+    simple = dict(zip(parts, fitted, strict=True))
+    offset += len(fit_tasks)
+    cblm_tasks = [
+        (
+            [simple[name] for name in item.components],
+            item.inputs,
+            row.params("CBLM"),
+            datasets[item.behavior],
+            seed,
+        )
+        for item in complex_items
+    ]
+    composed = dict(
+        zip(
+            [item.name for item in complex_items],
+            run.map(_cblm_task, cblm_tasks, advance),
+            strict=True,
+        )
+    )
+    offset += len(cblm_tasks)
+    models = {**simple, **composed}
+
+    # every cell of every task: its no-fault baseline (kind None) first, then the levels
+    cell_tasks: list[tuple[Any, ...]] = []
+    for item in chosen:
+        starts = test_starts(item.behavior)[:n_starts]
+        channel = DROPOUT_CHANNEL[item.name]
+        cell_tasks.append((models[item.name], starts, None, None, sim, seed, channel))
+        for kind, kind_levels in plan:
+            for level in kind_levels:
+                cell_tasks.append((models[item.name], starts, kind.name, level, sim, seed, channel))
+    cells = iter(run.map(_cell_task, cell_tasks, advance))
 
     out = []
     for item in chosen:
-        model = _model(models, item, row)
-        starts = test_starts(item.behavior)[:n_starts]
-        channel = DROPOUT_CHANNEL[item.name]
-        base = evaluate_model(model, starts, sim=sim, seed=seed)
-        tick()
-        cells = []
-        for kind, kind_levels in plan:
-            for level in kind_levels:
-                cells.append(
-                    evaluate_fault(
-                        model, starts, kind.name, level, sim=sim, seed=seed, channel=channel
-                    )
-                )
-                tick()
+        base = next(cells)
         out.append(
             {
                 "task": item.name,
                 "behavior": item.behavior,
                 "inputs": list(item.inputs),
                 "components": list(item.components),
-                "dropout_channel": channel,
-                "baseline": {
-                    "goal_reached": base["goal_reached"],
-                    "n": base["n"],
-                    "success_rate_mean": base["success_rate_mean"],
-                    "zero_floor_mean": base["zero_floor_mean"],
-                },
-                "cells": cells,
+                "dropout_channel": DROPOUT_CHANNEL[item.name],
+                "baseline": base,
+                "cells": [next(cells) for _ in range(n_cells - 1)],
             }
         )
     return {
@@ -418,10 +463,25 @@ def run_faults(
     }
 
 
-def _model(models: _Models, item: AblationTask, row: AblationRow) -> Any:
-    if item.components:
-        return models.complex(item, row)[0]
-    return models.simple(item, row.params("SBLM"))[0]
+def _cblm_task(task: tuple[Any, ...]) -> Any:
+    """Fit one CBLM: ``(components, inputs, params, dataset, seed)`` (an executor task)."""
+    components, inputs, params, dataset, seed = task
+    return _fit_cblm(components, inputs, params, dataset, seed)[0]
+
+
+def _cell_task(task: tuple[Any, ...]) -> dict[str, Any]:
+    """Evaluate one cell (an executor task): ``(model, starts, kind, level, sim, seed,
+    channel)``; ``kind`` None: the no-fault baseline's summary (a plain evaluation)."""
+    model, starts, kind, level, sim, seed, channel = task
+    if kind is not None:
+        return evaluate_fault(model, starts, kind, level, sim=sim, seed=seed, channel=channel)
+    base = evaluate_model(model, starts, sim=sim, seed=seed)
+    return {
+        "goal_reached": base["goal_reached"],
+        "n": base["n"],
+        "success_rate_mean": base["success_rate_mean"],
+        "zero_floor_mean": base["zero_floor_mean"],
+    }
 
 
 def _hold_s() -> float:

@@ -10,7 +10,8 @@ is a representative one (:func:`representative_primitive`): one where the robot
 moves and its commands change, not the near-rest primitive that has the most
 samples. Every setting starts from the same split and the same sample order;
 settings with the same layer sizes also share their initial weights. Settings
-with the same hidden layout train together as one stack.
+with the same hidden layout train together as one stack; the stacks are independent
+tasks of the project's executor (``experiment generators --workers N``).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from numpy.typing import ArrayLike
 
 from behavior_hmm._atomic import atomic_write_bytes
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.evaluate._executor import Executor, Progress, SerialExecutor
 from behavior_hmm.generators._mlp import layer_views, rms_error, train_stack, with_ones
 from behavior_hmm.generators._motion import (
     _check_fit_inputs,
@@ -155,6 +157,8 @@ def run_generator_sweeps(
     primitive: int | None = None,
     min_samples: int = 20,
     random_state: int = 0,
+    executor: Executor | None = None,
+    progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Reproduce the thesis's motion-generator experiments (§6.2, appendix A) on one primitive.
 
@@ -190,6 +194,12 @@ def run_generator_sweeps(
         Smallest primitive :func:`representative_primitive` considers.
     random_state
         Seed (the primitive's own stream, as in ``MotionGenerators``).
+    executor
+        Trains the stacks (one per input set and hidden layout) as independent tasks
+        (default: this process, one after another); the report is the same whatever
+        runs them.
+    progress
+        Called with (stacks trained, stacks in all).
 
     Returns
     -------
@@ -261,25 +271,30 @@ def run_generator_sweeps(
             for h in two_input_layouts
         ]
     settings = sorted({setting for runs in sweeps.values() for _, setting in runs})
-    curves: dict[Setting, dict[str, Any]] = {}
-    for key, hidden in sorted({(k, h) for k, _, _, h in settings}):
-        group = [(lr, m) for k, lr, m, h in settings if (k, h) == (key, hidden)]
-        for (lr, m), result in zip(
+    # one executor task per stack (inputs, hidden layout): independent of each other
+    stacks = sorted({(k, h) for k, _, _, h in settings})
+    groups = [[(lr, m) for k, lr, m, h in settings if (k, h) == stack] for stack in stacks]
+    tasks = [
+        (
+            inputs[key],
+            y,
+            train_rows,
+            test_rows,
+            hidden,
             group,
-            _train_group(
-                inputs[key],
-                y,
-                train_rows,
-                test_rows,
-                hidden,
-                group,
-                state,
-                epochs,
-                batch_size,
-                init_range,
-            ),
-            strict=True,
-        ):
+            state,
+            epochs,
+            batch_size,
+            init_range,
+        )
+        for (key, hidden), group in zip(stacks, groups, strict=True)
+    ]
+    run = executor or SerialExecutor()
+    curves: dict[Setting, dict[str, Any]] = {}
+    for (key, hidden), group, results in zip(
+        stacks, groups, run.map(_group_task, tasks, progress), strict=True
+    ):
+        for (lr, m), result in zip(group, results, strict=True):
             curves[(key, lr, m, hidden)] = result
 
     out = Path(out_dir)
@@ -319,6 +334,11 @@ def run_generator_sweeps(
     report["summary_file"] = str(summary)
     atomic_write_bytes(summary, json.dumps(report, indent=1, allow_nan=False).encode())
     return report
+
+
+def _group_task(task: tuple[Any, ...]) -> list[dict[str, Any]]:
+    """Train one stack (an executor task): the arguments of :func:`_train_group`."""
+    return _train_group(*task)
 
 
 def _train_group(

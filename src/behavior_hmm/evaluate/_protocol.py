@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
+from behavior_hmm.evaluate._executor import Executor
 from behavior_hmm.evaluate._metrics import (
     command_jump_ratio,
     success_rate,
@@ -66,6 +68,7 @@ def evaluate_model(
     env: Any | None = None,
     case_options: CaseOptions | None = None,
     push: Mapping[str, float] | None = None,
+    executor: Executor | None = None,
 ) -> dict[str, Any]:
     """Run ``model`` (and baselines) from every start and score them against the teacher.
 
@@ -82,7 +85,8 @@ def evaluate_model(
     baselines
         Fitted baselines by name, evaluated on the same starts and references.
     progress
-        Called as ``progress(done, total)``.
+        Called as ``progress(done, total)``: runs done of ``len(starts)`` × runners
+        (with an executor, in steps of one start case: all its runners).
     keep_traces
         Also return the traces and reference demonstrations under ``"_traces"``.
     env
@@ -102,6 +106,13 @@ def evaluate_model(
         ``distance`` metres (the env's ``push`` option). Each case records ``pushed``
         (the run was still going at that step); ``goal_reached`` is judged at the end,
         after the push.
+    executor
+        Runs the start cases as independent tasks (each: the teacher's reference, then
+        every runner from that start, in a fresh ``make_env(sim)``); the model and
+        baselines must pickle. The result is identical to the default, in this process
+        one case after another. An ``env``, ``sim=None`` or ``case_options`` (objects
+        of the caller's that need not pickle, and an ``env`` whose state the caller may
+        read afterwards) keep the cases in this process whatever ``executor`` says.
 
     Returns
     -------
@@ -111,10 +122,13 @@ def evaluate_model(
         and ``baselines`` (same summary per baseline).
     """
     from behavior_hmm.sim import make_env
-    from behavior_hmm.teach import complete_start
 
     if not starts:
         raise ConfigError("no starts to evaluate")
+    if push is not None:
+        _check_push(push)  # before any case runs, in whichever process
+    # the caller's own objects (a robot, a hook) stay in this process: see ``executor``
+    pool = executor if env is None and sim is not None and case_options is None else None
     if sim is None:
         if env is None:
             raise ConfigError("evaluate_model needs sim or env")
@@ -124,69 +138,51 @@ def evaluate_model(
     if env is None:
         env = reference_env
     motor_max = Robot(reference_env).spec.max_wheel_speed
-    max_distance = None if sim is not None else math.inf
     behavior = str(model.behavior_)
     scale = float(model.command_scale_)
     runners = {"model": model, **dict(baselines or {})}
-    cases: dict[str, list[dict[str, Any]]] = {name: [] for name in runners}
-    traces: dict[str, list[Any]] = {name: [] for name in runners}
-    total = len(starts) * len(runners)
-    done = 0
-    for i, row in enumerate(starts):
-        begin, case_goal = split_start(row)
-        full = complete_start(behavior, begin, max_distance)
-        demo = reference_demonstration(
-            behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
+    tasks = [
+        _Case(
+            index=i,
+            row=row,
+            behavior=behavior,
+            runners=runners,
+            sim=sim,
+            seed=seed,
+            noise=noise,
+            push=push,
+            scale=scale,
+            motor_max=motor_max,
+            keep_traces=keep_traces,
         )
-        extra = dict(case_options(i, full, demo)) if case_options is not None else {}
-        push_step = None
-        if push is not None:
-            push_step, scheduled = _scheduled_push(push, len(demo["left"]), seed, i)
-            extra["pushes"] = [*extra.get("pushes", []), scheduled]
-        ref = np.column_stack([demo["left"], demo["right"]])
-        floor = zero_floor(ref, scale)
-        floor_motor = zero_floor(ref, motor_max)
-        for name, runner in runners.items():
-            goal = case_goal or None
-            try:
-                trace = runner.generate(
-                    env, start=full, goal=goal, seed=seed + i, noise=noise or None, **extra
-                )
-            except UnreachableGoalError as err:
-                # refused before any motion: scored as a robot that stayed still
-                trace = _refused(runner, full, goal, str(err))
-            gen = trace.command_array
-            errors = trace.final_errors()
-            cases[name].append(
-                {
-                    "start": full,
-                    "goal": trace.goal,
-                    "success_rate": success_rate(gen, ref, scale),
-                    "success_rate_motor_max": success_rate(gen, ref, motor_max),
-                    "zero_floor": floor,
-                    "zero_floor_motor_max": floor_motor,
-                    "goal_reached": bool(trace.goal_reached),
-                    "final_angle_error_deg": errors.get("angle"),
-                    "final_distance_error_m": errors.get("distance"),
-                    "duration_ratio": len(gen) / max(len(ref), 1),
-                    "steps": len(gen),
-                    "reference_steps": len(ref),
-                    "plan_changes": trace.n_plan_changes,
-                    "components": _collapsed([c for c in trace.component if c]),
-                    "reason": trace.reason,
-                    "command_jump_ratio": command_jump_ratio(gen, ref),
-                    # primitive changes of an SBLM, component changes of a CBLM
-                    "switches": _switches(runner, trace),
-                }
-            )
-            if push_step is not None:
-                # the push acts after env step `push_step`; a run ends with one stop step
-                cases[name][-1]["pushed"] = len(gen) > push_step
-            if keep_traces:
-                traces[name].append((trace, demo))
+        for i, row in enumerate(starts)
+    ]
+    total = len(starts) * len(runners)
+    outcomes: list[_CaseOutcome]
+    if pool is None:
+        done = 0
+
+        def ran() -> None:
+            nonlocal done
             done += 1
             if progress is not None:
                 progress(done, total)
+
+        outcomes = [_run_case(task, env, reference_env, case_options, ran) for task in tasks]
+    else:
+
+        def cases_done(finished: int, _: int) -> None:
+            if progress is not None:
+                progress(finished * len(runners), total)
+
+        outcomes = pool.map(_case_task, tasks, cases_done)
+    cases: dict[str, list[dict[str, Any]]] = {name: [] for name in runners}
+    traces: dict[str, list[Any]] = {name: [] for name in runners}
+    for scores, runs in outcomes:  # in case order, whoever ran them
+        for name in runners:
+            cases[name].append(scores[name])
+            if keep_traces:
+                traces[name].append(runs[name])
     result = _summary(cases["model"])
     result.update(
         {
@@ -212,6 +208,111 @@ def evaluate_model(
     if keep_traces:
         result["_traces"] = traces
     return result
+
+
+@dataclass(frozen=True)
+class _Case:
+    """One start case of an evaluation: everything it needs but its robot (picklable).
+
+    ``index`` is the case's place in the starts (its seed is ``seed + index``, its push
+    sign drawn from ``(seed, index)``); ``scale`` and ``motor_max`` (rad/s) normalize
+    the success rates; ``sim=None`` means the caller's own robot, whose starts may lie
+    beyond our arena.
+    """
+
+    index: int
+    row: Mapping[str, float]
+    behavior: str
+    runners: Mapping[str, Any]
+    sim: str | None
+    seed: int
+    noise: float
+    push: Mapping[str, float] | None
+    scale: float
+    motor_max: float
+    keep_traces: bool
+
+
+#: A case's scores by runner, and (``keep_traces``) its ``(trace, reference)`` by runner.
+_CaseOutcome = tuple[dict[str, dict[str, Any]], dict[str, tuple[Any, dict[str, np.ndarray]]]]
+
+
+def _case_task(case: _Case) -> _CaseOutcome:
+    """Run one start case in a fresh ``make_env(case.sim)`` (an executor task)."""
+    from behavior_hmm.sim import make_env
+
+    assert case.sim is not None  # a robot of the caller's own stays in its process
+    env = make_env(case.sim)
+    return _run_case(case, env, env, None, None)
+
+
+def _run_case(
+    case: _Case,
+    env: Any,
+    reference_env: Any,
+    case_options: CaseOptions | None,
+    ran: Callable[[], None] | None,
+) -> _CaseOutcome:
+    """The teacher's reference from the case's start in ``reference_env``, then every
+    runner from that start in ``env``, scored against it (``ran()`` after each runner)."""
+    from behavior_hmm.teach import complete_start
+
+    i, seed, noise = case.index, case.seed, case.noise
+    max_distance = None if case.sim is not None else math.inf
+    begin, case_goal = split_start(case.row)
+    full = complete_start(case.behavior, begin, max_distance)
+    demo = reference_demonstration(
+        case.behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
+    )
+    extra = dict(case_options(i, full, demo)) if case_options is not None else {}
+    push_step = None
+    if case.push is not None:
+        push_step, scheduled = _scheduled_push(case.push, len(demo["left"]), seed, i)
+        extra["pushes"] = [*extra.get("pushes", []), scheduled]
+    ref = np.column_stack([demo["left"], demo["right"]])
+    floor = zero_floor(ref, case.scale)
+    floor_motor = zero_floor(ref, case.motor_max)
+    scores: dict[str, dict[str, Any]] = {}
+    runs: dict[str, tuple[Any, dict[str, np.ndarray]]] = {}
+    for name, runner in case.runners.items():
+        goal = case_goal or None
+        try:
+            trace = runner.generate(
+                env, start=full, goal=goal, seed=seed + i, noise=noise or None, **extra
+            )
+        except UnreachableGoalError as err:
+            # refused before any motion: scored as a robot that stayed still
+            trace = _refused(runner, full, goal, str(err))
+        gen = trace.command_array
+        errors = trace.final_errors()
+        scores[name] = {
+            "start": full,
+            "goal": trace.goal,
+            "success_rate": success_rate(gen, ref, case.scale),
+            "success_rate_motor_max": success_rate(gen, ref, case.motor_max),
+            "zero_floor": floor,
+            "zero_floor_motor_max": floor_motor,
+            "goal_reached": bool(trace.goal_reached),
+            "final_angle_error_deg": errors.get("angle"),
+            "final_distance_error_m": errors.get("distance"),
+            "duration_ratio": len(gen) / max(len(ref), 1),
+            "steps": len(gen),
+            "reference_steps": len(ref),
+            "plan_changes": trace.n_plan_changes,
+            "components": _collapsed([c for c in trace.component if c]),
+            "reason": trace.reason,
+            "command_jump_ratio": command_jump_ratio(gen, ref),
+            # primitive changes of an SBLM, component changes of a CBLM
+            "switches": _switches(runner, trace),
+        }
+        if push_step is not None:
+            # the push acts after env step `push_step`; a run ends with one stop step
+            scores[name]["pushed"] = len(gen) > push_step
+        if case.keep_traces:
+            runs[name] = (trace, demo)
+        if ran is not None:
+            ran()
+    return scores, runs
 
 
 def _summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
@@ -247,16 +348,21 @@ def _scheduled_push(
     The bearing's sign is drawn per case from ``(seed, case)``, so every runner of the
     case gets the same push and the same seed gives the same pushes.
     """
+    step = max(1, round(_check_push(push) * reference_steps))
+    sign = 1.0 if np.random.default_rng([seed, case]).random() < 0.5 else -1.0
+    angle = sign * float(push.get("angle", 0.0))
+    return step, {"step": step, "angle": angle, "distance": float(push.get("distance", 0.0))}
+
+
+def _check_push(push: Mapping[str, float]) -> float:
+    """Refuse unknown push keys and an ``at`` outside (0, 1]; return ``at`` (a fraction)."""
     unknown = sorted(set(push) - {"at", "angle", "distance"})
     if unknown:
         raise ConfigError(f"unknown push key(s) {', '.join(unknown)}; use at, angle, distance")
     at = float(push.get("at", 0.5))
     if not 0.0 < at <= 1.0:
         raise ConfigError(f"push at must be a fraction in (0, 1], got {at:g}")
-    step = max(1, round(at * reference_steps))
-    sign = 1.0 if np.random.default_rng([seed, case]).random() < 0.5 else -1.0
-    angle = sign * float(push.get("angle", 0.0))
-    return step, {"step": step, "angle": angle, "distance": float(push.get("distance", 0.0))}
+    return at
 
 
 def _switches(runner: Any, trace: Any) -> int:
