@@ -133,6 +133,11 @@ class RateLimited:
         self._stopping = None
         self._label = ""
 
+    def _ramped_down(self) -> FloatArray:
+        """The command one step of the rate limit closer to rest (and now the last one)."""
+        self._last = self._last + np.clip(-self._last, -self._rate, self._rate)
+        return self._last
+
     def carry(self, command: FloatArray) -> None:
         """Continue from ``command`` (rad/s): a complex behavior's switch does not jolt."""
         self._last = np.array(command, dtype=np.float64)
@@ -151,8 +156,7 @@ class RateLimited:
         elif not out.done:
             self._label = out.component
         if self._stopping is not None:
-            u = self._last + np.clip(-self._last, -self._rate, self._rate)
-            self._last = u
+            u = self._ramped_down()
             return self._stopping._replace(command=u, done=not np.any(u))
         u = out.command
         if self._limit_motion:
@@ -300,8 +304,7 @@ class SimplePolicy(GoalTracking, RateLimited):
             self._brake_hold = 0
         if not self._braking:
             return self._limited(out)
-        u = self._last + np.clip(-self._last, -self._rate, self._rate)
-        self._last = u
+        u = self._ramped_down()
         self._label = out.component
         if np.any(u):
             return out._replace(command=u)
