@@ -30,15 +30,22 @@ def approach() -> SBLM:
     return SBLM(inputs=("distance", "angle"), epochs=30).fit(data)
 
 
-def _cruise(model: SBLM, braking: bool, cruise: float) -> tuple[np.ndarray, list[float], bool]:
-    """Drive a point robot from 0.15 m with the policy's generator stuck at ``cruise``."""
+def _cruise(
+    model: SBLM, braking: bool, cruise: float, lag_s: float = 0.0
+) -> tuple[np.ndarray, list[float], bool, float]:
+    """Drive a point robot from 0.15 m with the policy's generator stuck at ``cruise``.
+
+    The wheels follow the command with a first-order lag of ``lag_s`` seconds (0: at
+    once). Returns the commands, the distances, whether the policy finished and the
+    robot's speed (m/s) when it did.
+    """
     model.set_params(goal_braking=braking)
     policy = model.policy({"distance": 0.0})
     policy._gens = _Stuck(cruise)  # a generator that never slows down by itself
-    d, u = 0.15, np.zeros(2)
+    d, u, wheels = 0.15, np.zeros(2), np.zeros(2)
     commands, distances, done = [], [], False
     for _ in range(600):
-        v = WHEEL_RADIUS_M * float(np.mean(u))
+        v = WHEEL_RADIUS_M * float(np.mean(wheels))
         out = policy.step(
             {"distance": d, "angle": 0.0, "linear_velocity": v, "angular_velocity": 0.0}
         )
@@ -48,9 +55,10 @@ def _cruise(model: SBLM, braking: bool, cruise: float) -> tuple[np.ndarray, list
             break
         u = out.command
         commands.append(u)
-        d = max(d - WHEEL_RADIUS_M * float(np.mean(u)) * PERIOD_S, -0.05)
+        wheels = u if lag_s == 0 else wheels + (u - wheels) * min(1.0, PERIOD_S / lag_s)
+        d = max(d - WHEEL_RADIUS_M * float(np.mean(wheels)) * PERIOD_S, -0.05)
         distances.append(d)
-    return np.array(commands), distances, done
+    return np.array(commands), distances, done, v
 
 
 class _Stuck:
@@ -65,7 +73,7 @@ class _Stuck:
 
 def test_braking_ramps_to_rest_inside_the_goal(approach: SBLM) -> None:
     cruise = 0.6  # normalized: 0.6 x the demonstrations' largest command
-    commands, distances, done = _cruise(approach, True, cruise)
+    commands, distances, done, _ = _cruise(approach, True, cruise)
     policy = approach.policy({"distance": 0.0})
     rate = policy._rate
     assert rate > 0
@@ -83,10 +91,20 @@ def test_braking_ramps_to_rest_inside_the_goal(approach: SBLM) -> None:
 
 
 def test_without_braking_the_robot_arrives_at_speed(approach: SBLM) -> None:
-    commands, distances, done = _cruise(approach, False, 0.6)
+    commands, distances, done, _ = _cruise(approach, False, 0.6)
     # the stuck generator keeps cruising through the goal (into the object)
     assert min(distances) < -DISTANCE_TOLERANCE_M
     assert np.max(commands[-5:]) == pytest.approx(0.6 * approach.command_scale_) or done
+
+
+def test_braked_robot_on_slow_wheels_is_done_only_at_rest(approach: SBLM) -> None:
+    """With a 0.15 s wheel lag the robot coasts after the ramp: done waits for rest."""
+    from behavior_hmm.data._channels import TOLERANCES
+
+    _, distances, done, speed = _cruise(approach, True, 0.6, lag_s=0.15)
+    assert done
+    assert abs(speed) <= TOLERANCES["linear_velocity"]
+    assert abs(distances[-1]) <= DISTANCE_TOLERANCE_M
 
 
 def test_braking_is_a_parameter_of_the_presets() -> None:

@@ -126,7 +126,11 @@ class RateLimited:
     @property
     def braked(self) -> bool:
         """Whether goal braking has brought the robot to rest (it waits for its goal)."""
-        return self._braking and self._brake_hold >= BRAKE_SETTLE_CYCLES
+        return self._braking and self._brake_hold >= BRAKE_SETTLE_CYCLES and self._still()
+
+    def _still(self) -> bool:
+        """Whether the robot counts as at rest for goal braking (always, unless overridden)."""
+        return True
 
     def _limit_reset(self) -> None:
         self._last = np.zeros(2)
@@ -235,6 +239,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._limit_reset()
         self._brakes = bool(getattr(model, "goal_braking", False)) and self._rate > 0.0
         self._x = np.zeros(len(self._channels))
+        self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
         self._command_rates = None if learned is None else np.asarray(learned, dtype=np.float64)
         self._brake_reset()
@@ -310,14 +315,20 @@ class SimplePolicy(GoalTracking, RateLimited):
             return out._replace(command=u)
         self._brake_hold += 1
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
-        if self._brake_hold >= BRAKE_SETTLE_CYCLES and within_tolerance(
-            values, self.goal, self._tolerance
-        ):
+        still = self._still()
+        settled = self._brake_hold >= BRAKE_SETTLE_CYCLES and still
+        if settled and within_tolerance(values, self.goal, self._tolerance):
             # braked to rest inside the goal's tolerance: done, whatever the category
+            # (with stop_at_rest only once the readings show rest: slow wheels coast on)
             self._braking = False
             return out._replace(command=u, done=True, plan_changed=False)
-        self._braking = self._brake_hold < BRAKE_HOLD_CYCLES
+        # resume once at rest short of the goal (slow wheels: at most 4x as long)
+        self._braking = self._brake_hold < (BRAKE_HOLD_CYCLES if still else 4 * BRAKE_HOLD_CYCLES)
         return out._replace(command=u)
+
+    def _still(self) -> bool:
+        """At rest by the readings when the stop rule waits for rest (``stop_at_rest``)."""
+        return not self._at_rest or _at_rest(self._reading)
 
     def _rest_at_goal(self, now: FloatArray, rates: FloatArray, ramp: float) -> bool:
         """Whether a ramp to rest over ``ramp`` cycles, started now, ends at or past the goal.
@@ -344,6 +355,7 @@ class SimplePolicy(GoalTracking, RateLimited):
     def _decide(self, reading: Mapping[str, float]) -> StepOutput:
         x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
         self._x = x
+        self._reading = reading
         self._features.push(x)
         category, novel, _ = self._live.update(x)
         if self._recognize:
