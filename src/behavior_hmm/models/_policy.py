@@ -286,13 +286,16 @@ class SimplePolicy(GoalTracking, RateLimited):
     def _braked(self, out: StepOutput) -> StepOutput:
         """Goal braking: ramp to rest when arriving any later would overshoot the goal.
 
-        Each cycle the goal channels' filtered values and their rate of change (over
-        ``BRAKE_RATE_CYCLES``) predict where the robot would come to rest if its command
-        ramped to zero now at the rate limit (a linear ramp covers half the distance of
-        the current rate). When that point reaches the goal, the command ramps to zero,
-        so a generator that arrives too fast comes to rest at its goal instead of being
-        stopped at speed; the stop rule then ends the run at rest. A robot that comes to
-        rest short of its goal resumes its generators after ``BRAKE_HOLD_CYCLES``.
+        Each cycle the goal channels' filtered values and the rate of change the current
+        command gives them (the model's learned ``command_rates_``; a model file without
+        them: the rate measured over ``BRAKE_RATE_CYCLES``) predict where the robot would
+        come to rest if its command ramped to zero now at the rate limit (a linear ramp
+        covers half the distance of the current rate). When that point reaches the
+        goal, the command ramps to zero, so a generator that arrives too fast comes to
+        rest at its goal instead of being stopped at speed. A robot at rest inside the
+        goal's tolerance ``BRAKE_SETTLE_CYCLES`` after the ramp (with ``stop_at_rest``:
+        once the readings show rest) is done; one at rest short of it resumes its
+        generators after ``BRAKE_HOLD_CYCLES``.
         """
         filtered = (self._x + 1.0) / self._gain + self._lo
         history = self._brake_history
