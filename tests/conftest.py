@@ -15,6 +15,10 @@ from behavior_hmm.teach import collect
 
 SEED = int(os.environ.get("BEHAVIOR_HMM_TEST_SEED", "12345"))
 
+# Batch commands run in-process unless a test asks for workers: starting worker
+# interpreters costs about 3 s per command, and the executor tests pass --workers 2.
+os.environ.setdefault("BEHAVIOR_HMM_WORKERS", "1")
+
 # Hypothesis: in CI (env CI set) the same examples every run, so a red build replays;
 # elsewhere random examples, to find new failures. Select one with --hypothesis-profile.
 settings.register_profile("ci", derandomize=True, print_blob=True)

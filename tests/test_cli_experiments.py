@@ -41,7 +41,9 @@ def test_experiment_generators(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_experiment_simple_beats_the_thesis_on_the_kinematic_robot(tmp_path: Path) -> None:
-    res = runner.invoke(app, ["experiment", "simple", "--sim", "kinematic", "-o", tmp_path])
+    # both cores: the test session's default is one process (tests/conftest.py)
+    args = ["experiment", "simple", "--sim", "kinematic", "--workers", "2", "-o", tmp_path]
+    res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
     results = json.loads((tmp_path / "results.json").read_text())
     rows = results["rows"]

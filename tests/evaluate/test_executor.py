@@ -12,6 +12,7 @@ from behavior_hmm.evaluate._executor import (
     ProcessExecutor,
     SerialExecutor,
     check_workers,
+    default_workers,
     make_executor,
 )
 from behavior_hmm.evaluate._experiments import SIMPLE_CONFIGS, over_seeds, run_simple_experiment
@@ -39,6 +40,17 @@ def test_bad_executor_options_are_refused() -> None:
         check_workers(0)
     with pytest.raises(ConfigError, match="--address is for --executor ray"):
         make_executor("local", address="10.0.0.1:6379")
+
+
+def test_workers_default_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("BEHAVIOR_HMM_WORKERS", "3")
+    assert default_workers() == 3 and ProcessExecutor().workers == 3
+    monkeypatch.delenv("BEHAVIOR_HMM_WORKERS")
+    assert default_workers() >= 1
+    for bad in ("0", "two", "2000"):
+        monkeypatch.setenv("BEHAVIOR_HMM_WORKERS", bad)
+        with pytest.raises(ConfigError, match="BEHAVIOR_HMM_WORKERS must be an integer"):
+            default_workers()
 
 
 def test_over_seeds_mean_and_interval() -> None:

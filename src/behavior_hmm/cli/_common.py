@@ -264,7 +264,9 @@ JsonOut = Annotated[Path | None, typer.Option("--json", help="Write the results 
 WorkersOption = Annotated[
     int | None,
     typer.Option(
-        "--workers", help="Local worker processes (default: this machine's cores; 1: in-process)"
+        "--workers",
+        help="Local worker processes (default: $BEHAVIOR_HMM_WORKERS, else this machine's cores;"
+        " 1: in-process)",
     ),
 ]
 ExecutorOption = Annotated[

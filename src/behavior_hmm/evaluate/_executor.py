@@ -144,8 +144,24 @@ class RayExecutor:
         return list(ray.get(refs))
 
 
+#: Environment variable that overrides ``--workers``' default (e.g. 1 in a test session or
+#: on a shared login node).
+WORKERS_VARIABLE = "BEHAVIOR_HMM_WORKERS"
+
+
 def default_workers() -> int:
-    """This machine's cores (what ``--workers`` defaults to)."""
+    """What ``--workers`` defaults to: ``$BEHAVIOR_HMM_WORKERS``, else this machine's cores."""
+    value = os.environ.get(WORKERS_VARIABLE, "").strip()
+    if value:
+        try:
+            workers = int(value)
+        except ValueError:
+            raise ConfigError(
+                f"{WORKERS_VARIABLE} must be an integer in [1, 1024], got {value!r}"
+            ) from None
+        if not 1 <= workers <= 1024:
+            raise ConfigError(f"{WORKERS_VARIABLE} must be an integer in [1, 1024], got {value!r}")
+        return workers
     return max(
         1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     )
