@@ -268,3 +268,12 @@ def test_cli_trains_the_thesis_cblm(
     assert res.exit_code == 0, res.output
     assert "preset: thesis + switch_cycles=3" in res.output
     assert "components: turn, approach" in res.output
+
+
+def test_components_leave_the_start_check_to_the_complex_behavior(cblm: CBLM) -> None:
+    # a component starts once the complex level has found its goal missed: it does not
+    # hold still to confirm a goal at its first reading (tests/models/test_start_confirmation.py)
+    policy = cblm.policy({"angle": 0.0, "distance": 0.0})
+    children = list(policy._children.values())
+    assert children and all(child.start_confirm_cycles == 0 for child in children)
+    assert cblm.components_[0].policy({"angle": 0.0}).start_confirm_cycles > 0

@@ -79,6 +79,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
             k: make_policy(component, None, name=model.names_[k])
             for k, component in enumerate(model.components_)
         }
+        for child in self._children.values():
+            if hasattr(child, "start_confirm_cycles"):
+                child.start_confirm_cycles = 0  # this policy checks its goal before any
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
         self._limit_motion = False  # the components limit their own commands

@@ -91,6 +91,11 @@ BRAKE_HOLD_CYCLES = 8
 #: (the wheels' lag: it is at rest by then).
 BRAKE_SETTLE_CYCLES = 3
 
+#: Readings over which a robot that has not moved yet must hold its goal before its run
+#: ends there (with ``stop_at_rest``): one noisy first reading inside the tolerance
+#: does not end a run whose start lies outside it.
+START_CONFIRM_CYCLES = 8
+
 #: A soft stop at the goal takes at most this many control cycles; a robot moving faster
 #: than that when its goal is reached (an intermediate goal that its demonstrations
 #: passed at speed) is stopped at once: reaching the goal comes before smoothness.
@@ -206,6 +211,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         self.name = name
         self._set_goal(model, goal)
         self._at_rest = bool(getattr(model, "stop_at_rest", False))
+        #: readings a run that has not moved must hold its goal before it ends (0: at once;
+        #: a complex behavior sets 0 for its components, having checked its goal itself)
+        self.start_confirm_cycles = START_CONFIRM_CYCLES if self._at_rest else 0
+        self._confirmed = 0
         self._tolerance = float(tolerance)
         self._channels = tuple(model.inputs_)
         self.channels = read_channels(model)
@@ -250,6 +259,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._live.reset()
         self._prim_live.reset()
         self._started = False
+        self._confirmed = 0
         self._state = -1
         self._last_obs = -1
         self._alpha = self._log_pi.copy()
@@ -371,6 +381,10 @@ class SimplePolicy(GoalTracking, RateLimited):
             if within_tolerance(values, self.goal, self._tolerance) and (
                 not self._at_rest or _at_rest(reading)
             ):
+                if not self._started and self._confirmed < self.start_confirm_cycles:
+                    # not moved yet: hold still while the (filtered) readings confirm it
+                    self._confirmed += 1
+                    return StepOutput(_ZERO, category, novel, -1, self.name, False, False)
                 self._started = True
                 return StepOutput(_ZERO, category, novel, self._state, self.name, False, True)
         try:
