@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from behavior_hmm.errors import ConfigError
+from behavior_hmm.errors import ConfigError, DatasetError
 from behavior_hmm.evaluate._executor import (
     ProcessExecutor,
     SerialExecutor,
@@ -21,6 +21,10 @@ from behavior_hmm.viz._reports import write_results_files
 
 def square(x: int) -> int:
     return x * x
+
+
+def bad_row(x: int) -> int:
+    raise DatasetError("NaN value", file="f.csv", episode=x, row=7, field="angle")
 
 
 def test_executors_keep_task_order_and_report_progress() -> None:
@@ -40,6 +44,15 @@ def test_bad_executor_options_are_refused() -> None:
         check_workers(0)
     with pytest.raises(ConfigError, match="--address is for --executor ray"):
         make_executor("local", address="10.0.0.1:6379")
+
+
+def test_an_error_in_a_worker_comes_back_whole() -> None:
+    # user errors carry where they happened (file, episode, row, field) across processes
+    with pytest.raises(DatasetError) as caught:
+        ProcessExecutor(2).map(bad_row, [3, 4])
+    err = caught.value
+    assert str(err).endswith("row 7, field 'angle': NaN value") and err.file == "f.csv"
+    assert (err.row, err.field, err.reason) == (7, "angle", "NaN value")
 
 
 def test_workers_default_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:

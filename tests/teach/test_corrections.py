@@ -95,3 +95,33 @@ def test_collect_command_takes_corrections(tmp_path) -> None:  # type: ignore[no
     )
     assert res.exit_code == 0, res.output
     assert data.read(out).metadata["corrective_episodes"] == [2, 3, 4, 5]
+
+
+def test_a_complex_behavior_learns_from_the_nominal_demonstrations_only() -> None:
+    # a CBLM has no generators: runs a dataset lists as corrective would only distort its
+    # categories, transitions and command scale, so it fits as if they were not there
+    from behavior_hmm.models import CBLM
+
+    turn = SBLM(inputs=("angle",), epochs=5).fit(
+        collect("turn", [{"angle": a} for a in range(-170, 181, 40)], sim="kinematic")
+    )
+    approach = SBLM(inputs=("distance", "angle"), epochs=5).fit(
+        collect("approach", STARTS, sim="kinematic")
+    )
+    nominal = collect(
+        "turn-approach", [{"angle": a, "distance": 0.5} for a in (-90, 60, 150)], sim="kinematic"
+    )
+    other = collect(
+        "turn-approach", [{"angle": a, "distance": 0.8} for a in (-30, 100)], sim="kinematic"
+    )
+    both = nominal.concat(other, renumber=True).with_metadata(corrective_episodes=[3, 4])
+    with_copies = CBLM([turn, approach]).fit(both)
+    without = CBLM([turn, approach]).fit(nominal)
+    assert with_copies.command_scale_ == without.command_scale_
+    assert np.array_equal(with_copies.hmm_.log_A_, without.hmm_.log_A_)
+    assert np.array_equal(with_copies.observations_.prototypes_, without.observations_.prototypes_)
+
+
+def test_composite_behaviors_refuse_corrections() -> None:
+    with pytest.raises(ConfigError, match="collect corrective demonstrations of turn-approach's"):
+        collect("turn-approach", [{"angle": 90.0, "distance": 0.5}], corrections=1)

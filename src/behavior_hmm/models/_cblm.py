@@ -32,6 +32,7 @@ from behavior_hmm.models._sblm import (
     _cobart_params,
     _jsonable_params,
     _prefixed,
+    nominal_episodes,
 )
 
 FloatArray = NDArray[np.float64]
@@ -184,6 +185,12 @@ class CBLM(LearnedBehavior):
         inputs, components, names = self._checked(getattr(dataset, "sensor_channels", None))
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        nominal = nominal_episodes(dataset)
+        if not nominal.all():
+            # corrective demonstrations (collect --corrections) teach generators to recover;
+            # a CBLM has none, and their disturbed runs would only distort its categories,
+            # its transitions and the command scale of its success rate
+            dataset = dataset.subset(np.flatnonzero(nominal))
         tags = dataset.behavior
         if tags is None:
             raise DatasetError(

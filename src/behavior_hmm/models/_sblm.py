@@ -122,6 +122,9 @@ class SBLM(LearnedBehavior):
         within 5 deg/s, forward speed within 0.01 m/s), as the demonstrations end: the
         last small settling commands are generated too, and a component of a complex
         behavior hands over where its demonstrations did (turn & approach 83.8 -> 86.4 %).
+        A run that has not moved yet ends at its goal only once 8 readings in a row
+        confirm it (``START_CONFIRM_CYCLES``), so one noisy first reading inside the
+        tolerance does not end it (turn from 7 deg under sensor noise 0.01).
     segment_margin
         Each generator is trained on its primitive's rows plus up to this many rows
         before and after each of its segments, so it has seen how its primitive is

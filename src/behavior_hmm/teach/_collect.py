@@ -87,6 +87,13 @@ def collect(
         raise ConfigError(f"--corrections must be an integer >= 0, got {corrections!r}")
     if not 0.0 < correction_noise <= 0.5:
         raise ConfigError(f"--correction-noise must lie in (0, 0.5], got {correction_noise:g}")
+    if corrections and spec.components:
+        # its teacher corrects the phase it is in, not a heading disturbed while approaching:
+        # the disturbed runs end off the goal (turn-approach: 6 deg at sigma 0.02)
+        raise ConfigError(
+            f"--corrections is for simple behaviors; collect corrective demonstrations of "
+            f"{behavior}'s components ({', '.join(spec.components)}) instead"
+        )
     chosen = list(default_starts(behavior) if starts is None else starts)
     if not chosen:
         raise ConfigError("no starts to collect")
