@@ -119,3 +119,17 @@ def test_load_refuses_generators_of_another_width(turn_model: SBLM, tmp_path: Pa
     params["inputs"] = list(params["inputs"])
     with pytest.raises(ModelFileError, match="generator inputs"):
         SBLM._from_state(params, state, arrays)
+
+
+def test_generators_train_on_every_demonstration_unless_asked(turn_data: Dataset) -> None:
+    # default: no demonstration held out, every epoch trained, the last one kept
+    every = SBLM(inputs=("angle",), epochs=4).fit(turn_data).generators_
+    trained = every.trained_
+    assert not every.n_test_.any() and (every.best_epoch_[trained] == 3).all()
+    # the thesis holds out 20 % (whole demonstrations) and keeps the best epoch on them
+    held = SBLM(inputs=("angle",), epochs=4, generator_test_fraction=0.2).fit(turn_data)
+    assert held.generators_.n_test_.sum() > 0.1 * held.generators_.n_train_.sum()
+    assert (held.generators_.n_train_ < every.n_train_).any()
+    for bad in (-0.1, 1.0, True, "0.2"):
+        with pytest.raises(ConfigError, match="generator_test_fraction"):
+            SBLM(inputs=("angle",), generator_test_fraction=bad).fit(turn_data)

@@ -86,6 +86,14 @@ class SBLM(LearnedBehavior):
         ``None`` gives the thesis's 5/10/15 units for 1/2/3 channels; the default 5 for
         any number of channels generalizes better off the demonstrated states (approach
         {distance, angle}: 10 units 50 %, 5 units 81 % success on the kinematic robot).
+    generator_test_fraction
+        Share of each primitive's rows, drawn as whole demonstrations, held out of its
+        generator's training to keep the epoch with the lowest error on them (early
+        stopping), as the thesis's §6.2 holds out 20 %. 0 (default): every demonstration
+        trains every generator for all ``epochs`` and the last epoch is kept. With 19–30
+        demonstrations per behavior a held-out demonstration can be the only example of
+        a start (an approach from 0.10–0.20 m begins in a primitive that otherwise only
+        ends approaches: 3 demonstrations), and its network never learns it.
     command_history
         Previous commands fed to each generator beside its sensor window (an efference
         copy); 0 (default) gives the thesis's sensor-only networks. With a copy, a
@@ -192,6 +200,7 @@ class SBLM(LearnedBehavior):
         momentum: float = 0.4,
         epochs: int = 200,
         batch_size: int = 32,
+        generator_test_fraction: float = 0.0,
         command_history: int = 0,
         generator_output: str = "command",
         state_decoding: str = "history",
@@ -217,6 +226,7 @@ class SBLM(LearnedBehavior):
         self.momentum = momentum
         self.epochs = epochs
         self.batch_size = batch_size
+        self.generator_test_fraction = generator_test_fraction
         self.command_history = command_history
         self.generator_output = generator_output
         self.state_decoding = state_decoding
@@ -244,6 +254,9 @@ class SBLM(LearnedBehavior):
         size = self.batch_size
         if isinstance(size, bool) or not isinstance(size, int) or size < 1:
             raise ConfigError(f"batch_size must be an integer >= 1, got {size!r}")
+        held = self.generator_test_fraction
+        if isinstance(held, bool) or not isinstance(held, int | float) or not 0 <= held < 1:
+            raise ConfigError(f"generator_test_fraction must lie in [0, 1), got {held!r}")
         check_rate_limit(self.command_rate_limit)
 
     def _checked_inputs(self, available: Sequence[str] | None = None) -> tuple[str, ...]:
@@ -351,6 +364,8 @@ class SBLM(LearnedBehavior):
             momentum=self.momentum,
             epochs=self.epochs,
             batch_size=self.batch_size,
+            test_fraction=float(self.generator_test_fraction),
+            early_stopping=self.generator_test_fraction > 0,
             random_state=self.random_state,
         ).fit(
             features,
