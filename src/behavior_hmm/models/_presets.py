@@ -105,11 +105,6 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "minibatches of 32 (thesis: incremental, one update per sample)",
     ),
     Departure(
-        "generator_test_fraction",
-        {"SBLM": {"generator_test_fraction": 0.2}},
-        "generators train on every demonstration, all epochs (thesis: 20 % held out, best epoch)",
-    ),
-    Departure(
         "hidden",
         {"SBLM": {"hidden": None}},
         "5 hidden units for any input set (thesis: 5/10/15 for 1/2/3 channels)",

@@ -89,11 +89,13 @@ class SBLM(LearnedBehavior):
     generator_test_fraction
         Share of each primitive's rows, drawn as whole demonstrations, held out of its
         generator's training to keep the epoch with the lowest error on them (early
-        stopping), as the thesis's §6.2 holds out 20 %. 0 (default): every demonstration
-        trains every generator for all ``epochs`` and the last epoch is kept. With 19–30
-        demonstrations per behavior a held-out demonstration can be the only example of
-        a start (an approach from 0.10–0.20 m begins in a primitive that otherwise only
-        ends approaches: 3 demonstrations), and its network never learns it.
+        stopping), as the thesis's §6.2 holds out 20 % (default). 0: every demonstration
+        trains every generator for all ``epochs`` and the last epoch is kept; a held-out
+        demonstration can be the only example of a start (an approach from 0.10–0.20 m
+        begins in a primitive that otherwise only ends approaches). Measured over 5
+        training seeds (MuJoCo): 0 raises the mean success (turn 95.9 → 97.0 %, turn &
+        approach 89.9 → 90.9 %) but misses more goals (8 against 3 over the simple rows,
+        turn & approach and position), so it is an option, not the default.
     command_history
         Previous commands fed to each generator beside its sensor window (an efference
         copy); 0 (default) gives the thesis's sensor-only networks. With a copy, a
@@ -200,7 +202,7 @@ class SBLM(LearnedBehavior):
         momentum: float = 0.4,
         epochs: int = 200,
         batch_size: int = 32,
-        generator_test_fraction: float = 0.0,
+        generator_test_fraction: float = 0.2,
         command_history: int = 0,
         generator_output: str = "command",
         state_decoding: str = "history",
