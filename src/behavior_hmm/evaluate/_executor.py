@@ -153,12 +153,7 @@ def default_workers() -> int:
     """What ``--workers`` defaults to: ``$BEHAVIOR_HMM_WORKERS``, else this machine's cores."""
     value = os.environ.get(WORKERS_VARIABLE, "").strip()
     if value:
-        try:
-            workers = int(value)
-        except ValueError:
-            raise ConfigError(
-                f"{WORKERS_VARIABLE} must be an integer in [1, 1024], got {value!r}"
-            ) from None
+        workers = int(value) if value.isdigit() else 0
         if not 1 <= workers <= 1024:
             raise ConfigError(f"{WORKERS_VARIABLE} must be an integer in [1, 1024], got {value!r}")
         return workers

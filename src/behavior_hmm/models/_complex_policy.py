@@ -81,7 +81,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         }
         for child in self._children.values():
             if hasattr(child, "start_confirm_cycles"):
-                child.start_confirm_cycles = 0  # this policy checks its goal before any
+                # the complex level checks its own goal before it runs a component
+                child.start_confirm_cycles = 0
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
         self._limit_motion = False  # the components limit their own commands
