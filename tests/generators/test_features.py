@@ -50,3 +50,27 @@ def test_delta_commands_accumulate_within_bounds() -> None:
         commands.append(online.commit(np.array([1.0, -1.0])).copy())
     assert commands[0].tolist() == [0.5, -0.5]
     assert commands[-1].tolist() == [1.5, -1.5]  # clipped at DELTA_COMMAND_BOUND
+
+
+@pytest.mark.parametrize(
+    ("behavior", "starts"),
+    [
+        ("turn", [{"angle": a, "distance": 0.5} for a in (-170.0, -60.0, 40.0, 180.0)]),
+        ("approach", [{"distance": d} for d in (0.2, 0.5, 1.0)]),
+    ],
+)
+def test_default_onset_clock_covers_the_start_up_ramps(
+    behavior: str, starts: list[dict[str, float]]
+) -> None:
+    """The clock must still be running while a demonstration accelerates: a clock that
+    saturates mid-ramp leaves the rest of the ramp to the flat-looking window."""
+    from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK
+    from behavior_hmm.teach import collect
+
+    data = collect(behavior, starts, sim="kinematic", seed=0)
+    ramps = []
+    for episode in range(len(data.lengths)):
+        speed = np.abs(data.episode(episode).commands).max(axis=1)
+        ramps.append(int(np.argmax(speed >= 0.9 * speed.max())))  # cycles to 90 % of peak
+    assert max(ramps) > 64  # turn 73, approach 95: a 64-cycle clock saturated mid-ramp
+    assert max(ramps) <= DEFAULT_ONSET_CLOCK

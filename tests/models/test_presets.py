@@ -75,7 +75,7 @@ def test_the_issue_s_additions_are_all_departures() -> None:
 def test_switching_one_departure() -> None:
     thesis = preset_params("thesis", "SBLM")
     plus = preset_params("thesis", "SBLM", switch=["onset_clock"])
-    assert plus == {**thesis, "onset_clock": 64}
+    assert plus == {**thesis, "onset_clock": 96}
     minus = preset_params("default", "CBLM", switch=["switch_cycles"])
     assert minus == {**preset_params("default", "CBLM"), "switch_cycles": 1}
     # a departure of the other kind leaves the model untouched
@@ -92,9 +92,9 @@ def test_unknown_preset_and_departure_are_refused() -> None:
 
 
 def test_from_preset_and_describe() -> None:
-    model = SBLM.from_preset("thesis", inputs=("angle",), onset_clock=64)
-    assert model.batch_size == 1 and model.onset_clock == 64 and model.inputs == ("angle",)
-    assert describe_params("SBLM", model.get_params()) == "thesis + onset_clock=64"
+    model = SBLM.from_preset("thesis", inputs=("angle",), onset_clock=96)
+    assert model.batch_size == 1 and model.onset_clock == 96 and model.inputs == ("angle",)
+    assert describe_params("SBLM", model.get_params()) == "thesis + onset_clock=96"
     assert describe_params("SBLM", SBLM().get_params()) == "default"
     cblm = CBLM.from_preset("thesis")
     assert (cblm.repair, cblm.switch_cycles, cblm.observation_vigilance) == (False, 1, 0.95)

@@ -18,7 +18,11 @@ from behavior_hmm.data import (
 )
 from behavior_hmm.errors import ConfigError, NotFittedError
 from behavior_hmm.generators import MotionGenerators
-from behavior_hmm.generators._features import FeatureLayout, shifted_windows
+from behavior_hmm.generators._features import (
+    DEFAULT_ONSET_CLOCK,
+    FeatureLayout,
+    shifted_windows,
+)
 from behavior_hmm.generators._motion import AdamGenerators
 from behavior_hmm.models._goals import check_goal, check_input_names, within_tolerance
 from behavior_hmm.runtime import (
@@ -82,7 +86,7 @@ class BehaviorCloning(Estimator):
         hidden: int | tuple[int, ...] | None = None,
         window: int = 10,
         command_history: int = 0,
-        onset_clock: int = 64,
+        onset_clock: int = DEFAULT_ONSET_CLOCK,
         window_noise: float = 0.003,
         cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
         learning_rate: float = 0.01,
@@ -251,7 +255,7 @@ class StrongBehaviorCloning(BehaviorCloning):
         hidden: int | tuple[int, ...] | None = (64, 64),
         window: int = 10,
         command_history: int = 0,
-        onset_clock: int = 64,
+        onset_clock: int = DEFAULT_ONSET_CLOCK,
         window_noise: float = 0.003,
         cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
         learning_rate: float = 2e-3,

@@ -27,6 +27,11 @@ Lengths = Sequence[int] | NDArray[np.integer[Any]]
 #: A generator that outputs changes keeps its command within this (normalized) bound.
 DELTA_COMMAND_BOUND = 1.5
 
+#: Default onset clock length in control cycles (~1.5 s at 16 ms): as long as the
+#: demonstrations' start-up ramps, which reach 90 % of their peak command after up to 73
+#: cycles (turn) and 95 cycles (approach, retreat). A 64-cycle clock saturated mid-ramp.
+DEFAULT_ONSET_CLOCK = 96
+
 
 def command_features(commands: FloatArray, lengths: Lengths, history: int) -> FloatArray:
     """Previous ``history`` normalized commands per row (zeros before an episode starts).

@@ -67,7 +67,7 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
     Departure(
         "onset_clock",
         {"SBLM": {"onset_clock": 0}},
-        "generators also read the time since the start, min(t, 64)/64",
+        "generators also read the time since the start, min(t, 96)/96",
     ),
     Departure(
         "primitive_recognition",

@@ -22,6 +22,7 @@ from behavior_hmm.data import (
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
 from behavior_hmm.generators import MotionGenerators
 from behavior_hmm.generators._features import (
+    DEFAULT_ONSET_CLOCK,
     FeatureLayout,
     command_features,
     shifted_windows,
@@ -120,8 +121,9 @@ class SBLM(LearnedBehavior):
         If > 0, each generator also reads the time since the behavior started,
         ``min(t, onset_clock) / onset_clock`` (t in control cycles). At rest the window
         is flat, so without it a network cannot tell how far its start-up ramp has
-        gone (the stall / wrong-sign start of DESIGN §8); 64 cycles (~1 s) covers the
-        demonstrations' acceleration. 0 disables it.
+        gone (the stall / wrong-sign start of DESIGN §8). The default, 96 cycles (~1.5 s),
+        covers the demonstrations' start-up ramps (90 % of their peak command after up to
+        73 cycles on turn, 95 on approach). 0 disables it.
     window_noise
         If > 0, the generators also train on a copy of every row whose windows are
         shifted by a Gaussian offset per channel with this standard deviation
@@ -207,7 +209,7 @@ class SBLM(LearnedBehavior):
         generator_output: str = "command",
         state_decoding: str = "history",
         primitive_recognition: bool = True,
-        onset_clock: int = 64,
+        onset_clock: int = DEFAULT_ONSET_CLOCK,
         window_noise: float = 0.003,
         segment_margin: int = 10,
         stop_at_rest: bool = True,
