@@ -94,9 +94,10 @@ class SBLM(LearnedBehavior):
         trains every generator for all ``epochs`` and the last epoch is kept; a held-out
         demonstration can be the only example of a start (an approach from 0.10–0.20 m
         begins in a primitive that otherwise only ends approaches). Measured over 5
-        training seeds (MuJoCo): 0 raises the mean success (turn 95.9 → 97.0 %, turn &
-        approach 89.9 → 90.9 %) but misses more goals (8 against 3 over the simple rows,
-        turn & approach and position), so it is an option, not the default.
+        training seeds (MuJoCo, 64-cycle onset clock): 0 raises the mean success (turn
+        95.9 → 97.0 %, turn & approach 89.9 → 90.9 %) but misses more goals (8 against 3
+        over the simple rows, turn & approach and position), so it is an option, not the
+        default.
     command_history
         Previous commands fed to each generator beside its sensor window (an efference
         copy); 0 (default) gives the thesis's sensor-only networks. With a copy, a
