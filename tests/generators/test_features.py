@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from behavior_hmm.generators._features import FeatureLayout
+from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK, FeatureLayout
+from behavior_hmm.teach import collect
 
 
 @pytest.mark.parametrize(
@@ -64,9 +65,6 @@ def test_default_onset_clock_covers_the_start_up_ramps(
 ) -> None:
     """The clock must still be running while a demonstration accelerates: a clock that
     saturates mid-ramp leaves the rest of the ramp to the flat-looking window."""
-    from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK
-    from behavior_hmm.teach import collect
-
     data = collect(behavior, starts, sim="kinematic", seed=0)
     ramps = []
     for episode in range(len(data.lengths)):

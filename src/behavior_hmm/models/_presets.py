@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK
 
 #: Preset names, thesis first.
 PRESETS: Final[tuple[str, ...]] = ("thesis", "default")
@@ -67,7 +68,8 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
     Departure(
         "onset_clock",
         {"SBLM": {"onset_clock": 0}},
-        "generators also read the time since the start, min(t, 96)/96",
+        f"generators also read the time since the start, min(t, {DEFAULT_ONSET_CLOCK})"
+        f"/{DEFAULT_ONSET_CLOCK}",
     ),
     Departure(
         "primitive_recognition",
