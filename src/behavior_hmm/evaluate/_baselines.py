@@ -17,7 +17,7 @@ from behavior_hmm.data import (
     SignalPipeline,
 )
 from behavior_hmm.errors import ConfigError, NotFittedError
-from behavior_hmm.generators import MotionGenerators
+from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
 from behavior_hmm.generators._features import (
     DEFAULT_ONSET_CLOCK,
     FeatureLayout,
@@ -91,7 +91,7 @@ class BehaviorCloning(Estimator):
         cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
         learning_rate: float = 0.01,
         momentum: float = 0.4,
-        epochs: int = 200,
+        epochs: int = DEFAULT_GENERATOR_EPOCHS,
         batch_size: int = 32,
         optimizer: str = "sgd",
         patience: int | None = None,

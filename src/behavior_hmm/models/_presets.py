@@ -22,6 +22,7 @@ from typing import Any, Final
 
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK
+from behavior_hmm.generators._motion import DEFAULT_GENERATOR_EPOCHS
 
 #: Preset names, thesis first.
 PRESETS: Final[tuple[str, ...]] = ("thesis", "default")
@@ -105,6 +106,12 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "batch_size",
         {"SBLM": {"batch_size": 1}},
         "minibatches of 32 (thesis: incremental, one update per sample)",
+    ),
+    Departure(
+        "epochs",
+        {"SBLM": {"epochs": 200}},
+        f"{DEFAULT_GENERATOR_EPOCHS} training epochs per generator"
+        " (the thesis gives none; its preset: 200)",
     ),
     Departure(
         "hidden",

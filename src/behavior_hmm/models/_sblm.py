@@ -20,7 +20,7 @@ from behavior_hmm.data import (
     SignalPipeline,
 )
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
-from behavior_hmm.generators import MotionGenerators
+from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
 from behavior_hmm.generators._features import (
     DEFAULT_ONSET_CLOCK,
     FeatureLayout,
@@ -83,7 +83,10 @@ class SBLM(LearnedBehavior):
     cutoff_hz
         Low-pass cut-off (Hz) applied to the inputs in training and at run time.
     hidden, learning_rate, momentum, epochs, batch_size
-        Motion-generator training (lr 0.01, momentum 0.4 as thesis table 6.2). ``hidden``
+        Motion-generator training (lr 0.01, momentum 0.4 as thesis table 6.2). ``epochs``
+        400 (``DEFAULT_GENERATOR_EPOCHS``; the thesis preset 200): at 200 most generators
+        kept a weight set from their last 20 epochs, and the approach generators underfit
+        the short starts (approach {distance, angle} 93.6 → 95.7 % over 8 seeds). ``hidden``
         ``None`` gives the thesis's 5/10/15 units for 1/2/3 channels; the default 5 for
         any number of channels generalizes better off the demonstrated states (approach
         {distance, angle}: 10 units 50 %, 5 units 81 % success on the kinematic robot).
@@ -203,7 +206,7 @@ class SBLM(LearnedBehavior):
         hidden: int | tuple[int, ...] | None = 5,
         learning_rate: float = 0.01,
         momentum: float = 0.4,
-        epochs: int = 200,
+        epochs: int = DEFAULT_GENERATOR_EPOCHS,
         batch_size: int = 32,
         generator_test_fraction: float = 0.2,
         command_history: int = 0,
