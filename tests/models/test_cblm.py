@@ -229,6 +229,30 @@ def test_preemption_is_switched_by_its_parameter(
     assert calls[0] == 0
 
 
+def test_a_preempting_component_that_cannot_start_leaves_the_gap_to_the_plan(
+    cblm: CBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # From 8 deg off, turn pre-empts the planned approach (the test above). A component
+    # that cannot start (its own plan unreachable, as a nested turn & approach asked to
+    # back away) used to be tried again every cycle while the robot stood still until
+    # the step limit; now the plan runs instead.
+    from behavior_hmm.errors import UnreachableGoalError
+    from behavior_hmm.models._policy import SimplePolicy
+
+    turn = cblm.components_[0]
+    original = SimplePolicy.step
+
+    def step(self: Any, reading: Any) -> Any:
+        if self.model is turn:
+            raise UnreachableGoalError("turn: no plan from here")
+        return original(self, reading)
+
+    monkeypatch.setattr(SimplePolicy, "step", step)
+    trace = cblm.generate(kinematic_env, start={"angle": 8.0, "distance": 0.3}, seed=0)
+    assert "approach" in trace.component
+    assert trace.channel("distance")[-1] < 0.1  # it drove to the object
+
+
 def test_thesis_cblm_switches_at_once_and_never_repairs(
     cblm: CBLM, complex_data: Dataset, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:

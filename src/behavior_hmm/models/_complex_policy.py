@@ -97,6 +97,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._finished: dict[int, dict[str, float]] = {}
         self._reachable_from = -1
         self._unable: set[int] = set()
+        self._unreachable = False  # the last component step raised UnreachableGoalError
         self._handed_back = False
         self._insist, self._wanted = 0, -1
         self._committed = False
@@ -203,9 +204,20 @@ class ComplexPolicy(GoalTracking, RateLimited):
                     c: self.goal.get(c, v)
                     for c, v in self.model.components_[fix].default_goal_.items()
                 }
+                before = self._child, self._active, self._finished.get(fix)
                 out = self._delegate(fix, sub_goal, reading, category, novel, renew=True)
-                self._committed = True
-                return out
+                if not self._unreachable:
+                    self._committed = True
+                    return out
+                # it cannot start from here (e.g. a nested turn & approach asked to back
+                # away): the plan goes on as if it had not been tried, or the robot would
+                # try it again every cycle and never move
+                self._unable.add(fix)
+                self._child, self._active = before[0], before[1]
+                if before[2] is None:
+                    del self._finished[fix]
+                else:
+                    self._finished[fix] = before[2]
         if running and segment.state != self._active:
             # Debounce: near a category border the plan can flip every few cycles; a
             # running component is replaced only when the plan insists for a while.
@@ -328,10 +340,12 @@ class ComplexPolicy(GoalTracking, RateLimited):
     def _run_child(
         self, reading: Mapping[str, float], category: int, novel: bool, changed: bool
     ) -> StepOutput:
+        self._unreachable = False
         try:
             out = self._child.step(reading)
         except UnreachableGoalError:
             # the component cannot reach its intermediate goal from here: skip it
+            self._unreachable = True
             self._finished[self._active] = dict(self._child.goal)
             return StepOutput(_ZERO, category, novel, self._active, self.name, changed, False)
         if out.done:
