@@ -204,7 +204,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
                     c: self.goal.get(c, v)
                     for c, v in self.model.components_[fix].default_goal_.items()
                 }
-                before = self._child, self._active, self._finished.get(fix)
+                child, active, fix_goal = self._child, self._active, self._finished.get(fix)
                 out = self._delegate(fix, sub_goal, reading, category, novel, renew=True)
                 if not self._unreachable:
                     self._committed = True
@@ -213,11 +213,11 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 # away): the plan goes on as if it had not been tried, or the robot would
                 # try it again every cycle and never move
                 self._unable.add(fix)
-                self._child, self._active = before[0], before[1]
-                if before[2] is None:
+                self._child, self._active = child, active
+                if fix_goal is None:
                     del self._finished[fix]
                 else:
-                    self._finished[fix] = before[2]
+                    self._finished[fix] = fix_goal
         if running and segment.state != self._active:
             # Debounce: near a category border the plan can flip every few cycles; a
             # running component is replaced only when the plan insists for a while.
