@@ -301,3 +301,83 @@ def test_components_leave_the_start_check_to_the_complex_behavior(cblm: CBLM) ->
     children = list(policy._children.values())
     assert children and all(child.start_confirm_cycles == 0 for child in children)
     assert cblm.components_[0].policy({"angle": 0.0}).start_confirm_cycles > 0
+
+
+def test_an_approach_the_plan_leaves_out_runs_after_the_turn(
+    cblm: CBLM, kinematic_env: Any
+) -> None:
+    # 110 deg off and 3 cm behind the goal's distance, the plan holds only "turn"; the
+    # approach it leaves out used to pre-empt it, and from 110 deg off it circled until
+    # the step limit. In the demonstrations approach follows turn: it runs after it.
+    goal = {"angle": 0.0, "distance": 0.47}
+    trace = cblm.generate(kinematic_env, start={"angle": -110.0, "distance": 0.5}, goal=goal)
+    assert trace.component[0] == "turn"
+    assert trace.goal_reached
+
+
+def test_a_nested_cblm_stops_as_softly_as_its_components(
+    components: dict[str, Any], cblm: CBLM, complex_data: Dataset, kinematic_env: Any
+) -> None:
+    # the outer level let its component (itself complex) brake into the goal only when
+    # that component was simple: a nested run stopped from cruise speed in one cycle
+    tagged = Dataset.from_episodes(
+        [{**ep.to_dict(), "behavior": "turn-approach"} for ep in complex_data.episodes()],
+        metadata={"behavior": "reach"},
+    )
+    outer = CBLM([cblm]).fit(tagged)
+    goal = {"angle": 0.0, "distance": 0.3}
+    trace = outer.generate(kinematic_env, start={"angle": 0.0, "distance": 0.8}, goal=goal)
+    commands = np.asarray(trace.commands)
+    approach = components["approach"]
+    rate = approach.command_rate_limit * approach.delta_scale_ * approach.command_scale_
+    assert trace.goal_reached
+    assert np.abs(np.diff(commands, axis=0)).max() <= rate * 1.001
+
+
+def test_an_intermediate_goal_never_sends_the_robot_away_from_the_goal(
+    cblm: CBLM, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from behavior_hmm.models._policy import make_policy
+
+    policy = make_policy(cblm, {"angle": 0.0, "distance": 0.63})
+    here = {"angle": 30.0, "distance": 0.49}
+    # a prototype 0.39 m (behind the robot, seen from the goal) keeps the current 0.49 m
+    assert policy._on_the_way({"angle": 0.0, "distance": 0.39}, here)["distance"] == 0.49
+    # one on the way stays; the angle is never snapped (its sign is no direction)
+    assert policy._on_the_way({"angle": 5.0, "distance": 0.55}, here) == {
+        "angle": 5.0,
+        "distance": 0.55,
+    }
+    # thesis (forward_goals off): the prototype as it is
+    monkeypatch.setattr(cblm, "forward_goals", False)
+    policy = make_policy(cblm, {"angle": 0.0, "distance": 0.63})
+    assert policy._on_the_way({"angle": 0.0, "distance": 0.39}, here)["distance"] == 0.39
+
+
+def test_a_cycle_without_a_component_slows_down_instead_of_stopping_dead(
+    components: dict[str, Any], cblm: CBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a component that cannot go on in one cycle (its plan unreachable) used to leave
+    # the wheels at zero for that cycle, from cruise speed
+    from behavior_hmm.errors import UnreachableGoalError
+    from behavior_hmm.models._policy import SimplePolicy
+
+    approach = components["approach"]
+    original = SimplePolicy.step
+    calls = [0]
+
+    def step(self: Any, reading: Any) -> Any:
+        if self.model is approach:
+            calls[0] += 1
+            if calls[0] == 40:
+                raise UnreachableGoalError("approach: no plan from here")
+        return original(self, reading)
+
+    monkeypatch.setattr(SimplePolicy, "step", step)
+    trace = cblm.generate(kinematic_env, start={"angle": 0.0, "distance": 0.8}, seed=0)
+    assert calls[0] > 40
+    rates = [
+        approach.command_rate_limit * approach.delta_scale_ * approach.command_scale_,
+        cblm.command_rate_limit * cblm.delta_scale_,
+    ]
+    assert np.abs(np.diff(np.asarray(trace.commands), axis=0)).max() <= max(rates) * 1.001

@@ -91,6 +91,10 @@ class CBLM(LearnedBehavior):
         for a goal inside it, that component may finish (its own stop rule: at rest,
         braking into its goal) for up to this many control cycles before the complex
         behavior stops (64 = 1.02 s; thesis: 0, stop at once, however fast).
+    forward_goals
+        An intermediate goal never sends a channel back, away from the complex goal:
+        a channel the goal states (not the angle) whose exit-category prototype lies
+        behind the robot keeps its current value (thesis: False, the prototype).
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -123,6 +127,7 @@ class CBLM(LearnedBehavior):
         start_alternatives: int = 5,
         command_rate_limit: float = 1.5,
         settle_cycles: int = 64,
+        forward_goals: bool = True,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -139,6 +144,7 @@ class CBLM(LearnedBehavior):
         self.start_alternatives = start_alternatives
         self.command_rate_limit = command_rate_limit
         self.settle_cycles = settle_cycles
+        self.forward_goals = forward_goals
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -147,7 +153,7 @@ class CBLM(LearnedBehavior):
         rho = self.observation_vigilance
         if isinstance(rho, bool) or not isinstance(rho, int | float) or not 0 <= rho <= 1:
             raise ConfigError(f"observation_vigilance must lie in [0, 1], got {rho!r}")
-        for name in ("repair", "preempt_uncovered"):
+        for name in ("repair", "preempt_uncovered", "forward_goals"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         check_rate_limit(self.command_rate_limit)

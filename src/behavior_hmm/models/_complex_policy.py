@@ -73,6 +73,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._switch_cycles = int(model.switch_cycles)
         self._alternatives = int(model.start_alternatives)
         self._settle_cycles = int(getattr(model, "settle_cycles", 0))
+        self._forward = bool(getattr(model, "forward_goals", False))
         # one controller per component, built now (before any motion) and renewed with
         # each intermediate goal: building one takes ~0.5 ms, too long inside a cycle
         self._children: dict[int, Any] = {
@@ -103,6 +104,22 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._committed = False
         self._settling = 0
         self._limit_reset()
+
+    @property
+    def braking(self) -> bool:
+        """Whether the running component is ramping to rest short of its goal.
+
+        A complex behavior brakes through its components; a parent that runs this one
+        as a component lets it finish braking into the parent's goal (``settle_cycles``).
+        """
+        child = self._child
+        return child is not None and self._active not in self._finished and bool(child.braking)
+
+    @property
+    def braked(self) -> bool:
+        """Whether the running component has braked to rest (it waits for its goal)."""
+        child = self._child
+        return child is not None and self._active not in self._finished and bool(child.braked)
 
     def _plannable(self, category: int) -> int:
         """``category``, or the next-best match of the current window a plan can start from.
@@ -186,7 +203,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
                         _ZERO, category, novel, self._active, self._label or self.name, False, True
                     )
                 if not self._may_repair:  # thesis: stand still until the step limit
-                    return StepOutput(_ZERO, category, novel, self._active, self.name, False, False)
+                    return StepOutput(
+                        self._rest(), category, novel, self._active, self.name, False, False
+                    )
                 # The plan is exhausted short of the goal (e.g. an approach drifted off
                 # the bearing): run the component whose own goal covers the channel that
                 # misses its tolerance, toward the complex goal on its channels.
@@ -235,7 +254,41 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self.goal,
             final=segment.exit_observation in self._goal_set,
         )
-        return self._delegate(segment.state, sub_goal, reading, category, novel)
+        return self._delegate(
+            segment.state, self._on_the_way(sub_goal, values), reading, category, novel
+        )
+
+    def _on_the_way(
+        self, sub_goal: dict[str, float], values: Mapping[str, float]
+    ) -> dict[str, float]:
+        """``sub_goal`` with no channel sent back, away from the complex goal (``forward_goals``).
+
+        An intermediate goal is its exit category's prototype, which is coarse: from
+        0.49 m toward 0.63 m the turn & approach before a retreat is handed 0.39 m, and
+        would approach 10 cm only for the retreat to undo it. A channel the complex goal
+        states (other than the angle, whose sign is no direction) whose sub-goal lies
+        behind the robot, away from the goal, keeps its current value instead.
+        """
+        if not self._forward:  # thesis: the prototype as it is
+            return sub_goal
+        for channel, target in sub_goal.items():
+            if channel == "angle" or channel not in self.goal:
+                continue
+            now = values[channel]
+            if (target - now) * (self.goal[channel] - now) < 0.0:
+                sub_goal[channel] = now
+        return sub_goal
+
+    def _rest(self) -> FloatArray:
+        """The command when no component runs this cycle: toward rest at the rate limit.
+
+        The components limit their own commands; a cycle without one (a component that
+        cannot start, nothing left to run) would otherwise drop the wheels to zero at
+        once, however fast the robot was moving (thesis preset: zero).
+        """
+        if self._rate <= 0.0:
+            return _ZERO
+        return self._last + np.clip(-self._last, -self._rate, self._rate)
 
     def _settles_in_goal(self) -> bool:
         """Whether the running component may finish inside the goal (``settle_cycles``)."""
@@ -260,7 +313,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
         effects (a substantial share of the best effect); e.g. a start 9 deg off the
         object whose still window looks aligned gets "approach" planned, but approach
         does not turn, and in the demonstrations nothing turns after it. Then the
-        component that closes that gap best runs first. ``None``: the plan covers it.
+        component that closes that gap best runs first, unless the demonstrations run it
+        after the plan's first component (a start 3 cm short of the goal and 109 deg off
+        gets "turn" planned; the approach then comes after the turn, as the plan's
+        repair, not before it). ``None``: the plan covers it, or goes first.
         """
         effects = self.model.effects_
         for channel in self.goal:
@@ -279,8 +335,18 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 and k not in self._unable
             ]
             if able and not any(k in able for k in planned):
-                return int(able[0])
+                fix = int(able[0])
+                if planned and self._follows(fix, planned[0]):
+                    # in the demonstrations it comes after the plan's first component
+                    # (e.g. approach after turn): the plan runs first, a repair after it
+                    continue
+                return fix
         return None
+
+    def _follows(self, component: int, other: int) -> bool:
+        """Whether the demonstrations switch ``other`` -> ``component`` more than back."""
+        counts = self.model.hmm_.A_counts_
+        return bool(counts[other, component] > counts[component, other])
 
     def _repair(
         self, values: Mapping[str, float], reading: Mapping[str, float], category: int, novel: bool
@@ -315,7 +381,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 if comp not in self._finished:  # it runs: no UnreachableGoalError
                     return out
                 self._unable.add(comp)
-        return StepOutput(_ZERO, category, novel, self._active, self.name, False, False)
+        return StepOutput(self._rest(), category, novel, self._active, self.name, False, False)
 
     def _delegate(
         self,
@@ -347,7 +413,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
             # the component cannot reach its intermediate goal from here: skip it
             self._unreachable = True
             self._finished[self._active] = dict(self._child.goal)
-            return StepOutput(_ZERO, category, novel, self._active, self.name, changed, False)
+            rest = self._rest()
+            self._child.carry(rest)  # should it run again, it goes on from this command
+            return StepOutput(rest, category, novel, self._active, self.name, changed, False)
         if out.done:
             self._finished[self._active] = dict(self._child.goal)
             self._handed_back = True

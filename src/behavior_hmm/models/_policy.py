@@ -157,7 +157,7 @@ class RateLimited:
             return out
         if out.done and self._stopping is None:
             fast = float(np.max(np.abs(self._last))) > SOFT_STOP_CYCLES * self._rate
-            if fast and not self._braking:
+            if fast and not self.braking:
                 self._last = np.zeros(2)
                 return out  # moving fast at the goal: stop now
             # the ramp down still finishes the last component's motion: keep its name

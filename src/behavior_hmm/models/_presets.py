@@ -164,6 +164,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "at the goal, a component heading for a goal inside it finishes at rest (≤ 64 cycles)",
     ),
     Departure(
+        "forward_goals",
+        {"CBLM": {"forward_goals": False}},
+        "an intermediate goal never sends a channel back, away from the complex goal",
+    ),
+    Departure(
         "start_alternatives",
         {"CBLM": {"start_alternatives": 0}},
         "an unplannable start category tries up to 5 runner-up categories",
