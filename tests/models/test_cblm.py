@@ -381,3 +381,39 @@ def test_a_cycle_without_a_component_slows_down_instead_of_stopping_dead(
         cblm.command_rate_limit * cblm.delta_scale_,
     ]
     assert np.abs(np.diff(np.asarray(trace.commands), axis=0)).max() <= max(rates) * 1.001
+
+
+def test_the_handover_pause_is_the_teachers_rest_around_a_switch() -> None:
+    from behavior_hmm.models._cblm import _handover_cycles
+
+    moving, still = [1.0, -1.0], [0.001, 0.0]
+    # episode 1: 2 slow rows before its switch, 1 after; episode 2: 4 before, 2 after
+    first = [moving] * 3 + [still] * 2 + [still] + [moving] * 2
+    second = [moving] + [still] * 4 + [still] * 2 + [moving]
+    commands = np.array(first + second)
+    states = np.array([0] * 5 + [1] * 3 + [0] * 5 + [1] * 3)
+    lengths = np.array([8, 8])
+    assert _handover_cycles(commands, states, lengths, scale=1.0) == 4  # median of 3 and 6
+    # no switch in the demonstrations: no pause; a switch between episodes is none
+    assert _handover_cycles(commands, np.array([0] * 8 + [1] * 8), lengths, scale=1.0) == 0
+
+
+def test_a_component_that_ends_at_rest_hands_over_after_the_teachers_pause(
+    cblm: CBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert cblm.handover_cycles_ > 0  # the kinematic teacher settles each component too
+
+    def rest_before_approach() -> int:
+        trace = cblm.generate(kinematic_env, start={"angle": 90.0, "distance": 0.5}, seed=0)
+        first = trace.component.index("approach")
+        still = ~np.any(np.asarray(trace.commands[:first]), axis=1)
+        return int(np.argmin(still[::-1])) if not still.all() else first
+
+    assert rest_before_approach() >= cblm.handover_cycles_
+    monkeypatch.setattr(cblm, "handover_pause", False)  # thesis: the next one at once
+    assert rest_before_approach() < cblm.handover_cycles_
+
+
+def test_a_saved_cblm_keeps_its_handover_pause(cblm: CBLM, tmp_path: Path) -> None:
+    cblm.save(tmp_path / "ta.bhmm")
+    assert CBLM.load(tmp_path / "ta.bhmm").handover_cycles_ == cblm.handover_cycles_

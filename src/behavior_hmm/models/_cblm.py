@@ -95,6 +95,9 @@ class CBLM(LearnedBehavior):
         An intermediate goal never sends a channel back, away from the complex goal:
         a channel the goal states (not the angle) whose exit-category prototype lies
         behind the robot keeps its current value (thesis: False, the prototype).
+    handover_pause
+        When a component ends at rest, the next one starts after the demonstrations'
+        pause at a switch (``handover_cycles_``; thesis: False, at once).
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -106,6 +109,11 @@ class CBLM(LearnedBehavior):
         As for the SBLM (no motion primitives or generators of its own).
     command_scale_ : float
         Largest absolute command in the complex demonstrations (for evaluation).
+    handover_cycles_ : int
+        Median, over the demonstrations' component switches, of the consecutive cycles
+        around the switch whose commands stay under ``HANDOVER_REST`` of the command
+        scale: the teacher settles each component finer than the goal's tolerance
+        (MuJoCo turn & approach: 23 cycles, 0.37 s).
     """
 
     kind = "CBLM"
@@ -128,6 +136,7 @@ class CBLM(LearnedBehavior):
         command_rate_limit: float = 1.5,
         settle_cycles: int = 64,
         forward_goals: bool = True,
+        handover_pause: bool = True,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -145,6 +154,7 @@ class CBLM(LearnedBehavior):
         self.command_rate_limit = command_rate_limit
         self.settle_cycles = settle_cycles
         self.forward_goals = forward_goals
+        self.handover_pause = handover_pause
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -153,7 +163,7 @@ class CBLM(LearnedBehavior):
         rho = self.observation_vigilance
         if isinstance(rho, bool) or not isinstance(rho, int | float) or not 0 <= rho <= 1:
             raise ConfigError(f"observation_vigilance must lie in [0, 1], got {rho!r}")
-        for name in ("repair", "preempt_uncovered", "forward_goals"):
+        for name in ("repair", "preempt_uncovered", "forward_goals", "handover_pause"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         check_rate_limit(self.command_rate_limit)
@@ -242,6 +252,9 @@ class CBLM(LearnedBehavior):
         self.hmm_ = hmm
         self.command_scale_ = float(np.max(np.abs(dataset.commands))) or 1.0
         self.delta_scale_ = _largest_step(dataset.commands, lengths)
+        self.handover_cycles_ = _handover_cycles(
+            dataset.commands, states, lengths, self.command_scale_
+        )
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.default_goal_ = {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
         if not self.default_goal_:
@@ -337,6 +350,7 @@ class CBLM(LearnedBehavior):
             "hmm": self.hmm_.params,
             "command_scale": self.command_scale_,
             "delta_scale": self.delta_scale_,
+            "handover_cycles": self.handover_cycles_,
             "rest_values": self.rest_values_,
             "default_goal": self.default_goal_,
             "max_steps": self.max_steps_,
@@ -412,6 +426,10 @@ class CBLM(LearnedBehavior):
         if delta < 0:
             raise ModelFileError("delta_scale must be >= 0")
         model.delta_scale_ = delta
+        # files written before the handover pause existed have none: no pause then
+        model.handover_cycles_ = _modelfile.check_int(
+            state.get("handover_cycles", 0), "handover_cycles", 0, _modelfile.MAX_STEPS
+        )
         model._restore_common(state, inputs)
         return model
 
@@ -431,6 +449,38 @@ def _largest_step(commands: np.ndarray, lengths: np.ndarray) -> float:
     same_episode[np.cumsum(lengths)[:-1] - 1] = False
     inside = steps[same_episode]
     return float(inside.max()) if inside.size else 0.0
+
+
+#: Share of the command scale under which a demonstrated command counts as resting,
+#: for the pause at a component switch (``handover_cycles_``).
+HANDOVER_REST = 0.01
+
+
+def _handover_cycles(
+    commands: np.ndarray, states: np.ndarray, lengths: np.ndarray, scale: float
+) -> int:
+    """The demonstrations' typical pause at a component switch (control cycles).
+
+    For each switch, the consecutive cycles on either side of it whose commands (both
+    wheels) stay under ``HANDOVER_REST * scale``; the median over all switches (0 when
+    the demonstrations never switch).
+    """
+    slow = np.max(np.abs(np.asarray(commands, dtype=np.float64)), axis=1) < HANDOVER_REST * scale
+    pauses = []
+    start = 0
+    for length in np.asarray(lengths, dtype=np.int64).tolist():
+        end = start + length
+        rest, tags = slow[start:end], states[start:end]
+        for k in (np.flatnonzero(tags[1:] != tags[:-1]) + 1).tolist():
+            before = k - 1
+            while before >= 0 and rest[before]:
+                before -= 1
+            after = k
+            while after < length and rest[after]:
+                after += 1
+            pauses.append(after - before - 1)
+        start = end
+    return int(np.median(pauses)) if pauses else 0
 
 
 def _effects(

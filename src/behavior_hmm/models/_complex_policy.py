@@ -74,6 +74,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._alternatives = int(model.start_alternatives)
         self._settle_cycles = int(getattr(model, "settle_cycles", 0))
         self._forward = bool(getattr(model, "forward_goals", False))
+        pause = bool(getattr(model, "handover_pause", False))
+        self._handover = int(getattr(model, "handover_cycles_", 0)) if pause else 0
         # one controller per component, built now (before any motion) and renewed with
         # each intermediate goal: building one takes ~0.5 ms, too long inside a cycle
         self._children: dict[int, Any] = {
@@ -103,6 +105,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._insist, self._wanted = 0, -1
         self._committed = False
         self._settling = 0
+        self._pause = 0
         self._limit_reset()
 
     @property
@@ -171,6 +174,11 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
         at_goal = within_tolerance(values, self.goal, self._tolerance)
+        if self._pause > 0 and not at_goal:
+            # a component ended at rest: wait as long as the teacher rests at a switch
+            self._pause -= 1
+            label = self._label or self.name
+            return StepOutput(_ZERO, category, novel, self._active, label, False, False)
         if at_goal and self._settles_in_goal():
             # the running component heads for a goal inside the tolerance: it finishes
             # (at rest, braking into it) rather than the robot stopping at speed
@@ -417,6 +425,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self._child.carry(rest)  # should it run again, it goes on from this command
             return StepOutput(rest, category, novel, self._active, self.name, changed, False)
         if out.done:
+            if not np.any(out.command):  # it ended at rest: the teacher's pause follows
+                self._pause = self._handover
             self._finished[self._active] = dict(self._child.goal)
             self._handed_back = True
             self._committed = False

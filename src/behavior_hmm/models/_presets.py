@@ -169,6 +169,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "an intermediate goal never sends a channel back, away from the complex goal",
     ),
     Departure(
+        "handover_pause",
+        {"CBLM": {"handover_pause": False}},
+        "after a component ends at rest, wait as long as the teacher rests at a switch",
+    ),
+    Departure(
         "start_alternatives",
         {"CBLM": {"start_alternatives": 0}},
         "an unplannable start category tries up to 5 runner-up categories",
