@@ -417,3 +417,17 @@ def test_a_component_that_ends_at_rest_hands_over_after_the_teachers_pause(
 def test_a_saved_cblm_keeps_its_handover_pause(cblm: CBLM, tmp_path: Path) -> None:
     cblm.save(tmp_path / "ta.bhmm")
     assert CBLM.load(tmp_path / "ta.bhmm").handover_cycles_ == cblm.handover_cycles_
+
+
+def test_a_push_after_a_component_finished_runs_it_afresh(cblm: CBLM, kinematic_env: Any) -> None:
+    # pushed during the pause after the turn, the turn's goal no longer holds; the turn
+    # used to be resumed on its stopped controller, which stopped again every cycle and
+    # left the robot standing until the step limit
+    start = {"angle": 90.0, "distance": 0.5}  # its turn ends at rest: a pause follows
+    plain = cblm.generate(kinematic_env, start=start, seed=0)
+    push_step = plain.component.index("approach") - cblm.handover_cycles_ // 2
+    pushed = cblm.generate(
+        kinematic_env, start=start, seed=0, pushes=[{"step": push_step, "angle": 30.0}]
+    )
+    assert pushed.reason == "goal" and pushed.goal_reached
+    assert "approach" in pushed.component[push_step:]

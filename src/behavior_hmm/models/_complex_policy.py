@@ -106,6 +106,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._committed = False
         self._settling = 0
         self._pause = 0
+        self._redo = False  # the active component's goal was undone after it finished
         self._limit_reset()
 
     @property
@@ -196,6 +197,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         for comp, sub_goal in list(self._finished.items()):
             if not within_tolerance(values, sub_goal):
                 del self._finished[comp]
+                # the last one to run has stopped its controller: it starts afresh
+                self._redo = self._redo or comp == self._active
         plan = None
         try:
             plan = self.model.hmm_.plan(category, self.goal_category)
@@ -254,8 +257,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 return self._run_child(reading, category, novel, changed=False)
         self._insist, self._wanted = 0, -1
         self._committed = False
-        if segment.state == self._active:  # carry on (an intermediate goal is only
-            return self._run_child(reading, category, novel, changed=False)  # for a new one)
+        if segment.state == self._active and not self._redo:  # carry on (an intermediate
+            return self._run_child(reading, category, novel, changed=False)  # goal: a new one)
+        renew, self._redo = self._redo, False
         sub_goal = self.model.component_goal(
             segment.state,
             segment.exit_observation,
@@ -263,7 +267,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             final=segment.exit_observation in self._goal_set,
         )
         return self._delegate(
-            segment.state, self._on_the_way(sub_goal, values), reading, category, novel
+            segment.state, self._on_the_way(sub_goal, values), reading, category, novel, renew
         )
 
     def _on_the_way(
