@@ -98,16 +98,18 @@ def test_distance_zero_runs_turn_only(cblm: CBLM, kinematic_env: Any) -> None:
     assert set(trace.component[:-1]) == {"turn"}
 
 
-def test_nested_cblm_generates(
-    components: dict[str, Any], cblm: CBLM, complex_data: Dataset, kinematic_env: Any
-) -> None:
-    # a higher CBLM whose only component is the turn-approach CBLM (tagged accordingly)
+@pytest.fixture(scope="module")
+def nested(cblm: CBLM, complex_data: Dataset) -> CBLM:
+    """A higher CBLM whose only component is the turn-approach CBLM (tagged accordingly)."""
     tagged = Dataset.from_episodes(
         [{**ep.to_dict(), "behavior": "turn-approach"} for ep in complex_data.episodes()],
         metadata={"behavior": "reach"},
     )
-    outer = CBLM([cblm]).fit(tagged)
-    trace = outer.generate(kinematic_env, start={"angle": 80.0, "distance": 0.5}, seed=0)
+    return CBLM([cblm]).fit(tagged)
+
+
+def test_nested_cblm_generates(nested: CBLM, kinematic_env: Any) -> None:
+    trace = nested.generate(kinematic_env, start={"angle": 80.0, "distance": 0.5}, seed=0)
     assert set(trace.component[:-1]) <= {"turn", "approach"}
     assert "turn" in trace.component
     assert abs(trace.final_observation[2]) < 80.0
@@ -316,17 +318,12 @@ def test_an_approach_the_plan_leaves_out_runs_after_the_turn(
 
 
 def test_a_nested_cblm_stops_as_softly_as_its_components(
-    components: dict[str, Any], cblm: CBLM, complex_data: Dataset, kinematic_env: Any
+    components: dict[str, Any], nested: CBLM, kinematic_env: Any
 ) -> None:
     # the outer level let its component (itself complex) brake into the goal only when
     # that component was simple: a nested run stopped from cruise speed in one cycle
-    tagged = Dataset.from_episodes(
-        [{**ep.to_dict(), "behavior": "turn-approach"} for ep in complex_data.episodes()],
-        metadata={"behavior": "reach"},
-    )
-    outer = CBLM([cblm]).fit(tagged)
     goal = {"angle": 0.0, "distance": 0.3}
-    trace = outer.generate(kinematic_env, start={"angle": 0.0, "distance": 0.8}, goal=goal)
+    trace = nested.generate(kinematic_env, start={"angle": 0.0, "distance": 0.8}, goal=goal)
     commands = np.asarray(trace.commands)
     approach = components["approach"]
     rate = approach.command_rate_limit * approach.delta_scale_ * approach.command_scale_
