@@ -116,14 +116,20 @@ class ComplexPolicy(GoalTracking, RateLimited):
         A complex behavior brakes through its components; a parent that runs this one
         as a component lets it finish braking into the parent's goal (``settle_cycles``).
         """
-        child = self._child
-        return child is not None and self._active not in self._finished and bool(child.braking)
+        child = self._running()
+        return child is not None and bool(child.braking)
 
     @property
     def braked(self) -> bool:
         """Whether the running component has braked to rest (it waits for its goal)."""
-        child = self._child
-        return child is not None and self._active not in self._finished and bool(child.braked)
+        child = self._running()
+        return child is not None and bool(child.braked)
+
+    def _running(self) -> Any:
+        """The controller of the component running now (None: none, or it has finished)."""
+        if self._child is None or self._active in self._finished:
+            return None
+        return self._child
 
     def _plannable(self, category: int) -> int:
         """``category``, or the next-best match of the current window a plan can start from.
@@ -208,7 +214,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 raise
             segments = []
         if not segments:
-            if self._child is None or self._active in self._finished:
+            if self._running() is None:
                 if at_goal:  # nothing left to run and the goal holds
                     return StepOutput(
                         _ZERO, category, novel, self._active, self._label or self.name, False, True
@@ -223,7 +229,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 return self._repair(values, reading, category, novel)
             return self._run_child(reading, category, novel, changed=False)
         segment = segments[0]
-        running = self._child is not None and self._active not in self._finished
+        running = self._running() is not None
         if running and self._committed:
             # a component run to close a gap the plan missed finishes its job first
             return self._run_child(reading, category, novel, changed=False)
@@ -298,14 +304,12 @@ class ComplexPolicy(GoalTracking, RateLimited):
         cannot start, nothing left to run) would otherwise drop the wheels to zero at
         once, however fast the robot was moving (thesis preset: zero).
         """
-        if self._rate <= 0.0:
-            return _ZERO
-        return self._last + np.clip(-self._last, -self._rate, self._rate)
+        return self._ramped_down() if self._rate > 0.0 else _ZERO
 
     def _settles_in_goal(self) -> bool:
         """Whether the running component may finish inside the goal (``settle_cycles``)."""
-        child = self._child
-        if child is None or self._active in self._finished or child.braked:
+        child = self._running()
+        if child is None or child.braked:
             return False  # a component braked to rest inside the goal is done
         if self._settling >= self._settle_cycles:
             return False
