@@ -73,6 +73,18 @@ def test_attenuates_high_and_keeps_low_frequencies() -> None:
     assert np.max(np.abs(fast)) < 0.06
 
 
+@pytest.mark.parametrize("cutoff", [1.0, 2.0, 4.0])
+def test_a_ramp_comes_out_lag_samples_behind(cutoff: float) -> None:
+    """A signal changing steadily trails by ``lag_samples`` (√2 / (2π f_c) seconds for a
+    second-order Butterworth, to the bilinear transform's warping)."""
+    filt = LowPassFilter(cutoff)
+    ramp = 0.25 * np.arange(600.0)
+    trail = (ramp - filt.filter_episode(ramp))[-100:] / 0.25
+    np.testing.assert_allclose(trail, filt.lag_samples, rtol=1e-6)
+    analog = np.sqrt(2) / (2 * np.pi * cutoff) / CONTROL_PERIOD
+    assert filt.lag_samples == pytest.approx(analog, rel=0.02)
+
+
 def test_is_causal(rng: np.random.Generator) -> None:
     x = rng.normal(size=300)
     y = x.copy()

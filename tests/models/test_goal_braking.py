@@ -90,6 +90,22 @@ def test_braking_ramps_to_rest_inside_the_goal(approach: SBLM) -> None:
     assert np.all(ramp <= 1e-12) and np.min(ramp) == pytest.approx(-rate)
 
 
+def test_braking_allows_for_the_filters_lag() -> None:
+    """A slow filter (1 Hz: readings 14 cycles behind a moving robot) at full speed:
+    braking starts from where the robot is, not where its filtered readings say it was,
+    so it still comes to rest inside the goal and never drives into the object."""
+    data = collect(
+        "approach", [{"distance": x} for x in np.arange(0.1, 1.01, 0.15)], sim="kinematic"
+    )
+    slow = SBLM(inputs=("distance", "angle"), epochs=30, cutoff_hz=1.0).fit(data)
+    assert slow.policy({"distance": 0.0})._lag > 13
+    commands, distances, done, _ = _cruise(slow, True, 1.0)
+    assert done
+    assert abs(distances[-1]) <= DISTANCE_TOLERANCE_M
+    assert min(distances) > -DISTANCE_TOLERANCE_M
+    assert command_jump(commands) <= slow.policy({"distance": 0.0})._rate * (1 + 1e-9)
+
+
 def test_without_braking_the_robot_arrives_at_speed(approach: SBLM) -> None:
     commands, distances, done, _ = _cruise(approach, False, 0.6)
     # the stuck generator keeps cruising through the goal (into the object)

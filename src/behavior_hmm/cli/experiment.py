@@ -389,6 +389,7 @@ def experiment_generators(
     from behavior_hmm.data import CommandScaler, SignalPipeline
     from behavior_hmm.evaluate import run_generator_sweeps
     from behavior_hmm.generators import make_windows
+    from behavior_hmm.models import preset_params
     from behavior_hmm.teach import collect
     from behavior_hmm.viz import plot_generator_sweeps
 
@@ -399,12 +400,13 @@ def experiment_generators(
     check_outputs({}, {}, folders={"-o": out})
     runner = make_run_executor(executor, workers, address)
     data = collect("turn", sim=sim, seed=seed)
-    x = SignalPipeline(("angle",)).transform(data)
+    cutoff = preset_params("thesis", "SBLM")["cutoff_hz"]  # the thesis's §6.2, as published
+    x = SignalPipeline(("angle",), cutoff).transform(data)
     primitives = CobART.motion_primitives().fit(x, data.lengths).labels_
     windows = make_windows(x, data.lengths, 10)
     # appendix A: two-input networks (angle and angular velocity, 20 inputs) on the
     # same primitive's rows
-    x2 = SignalPipeline(("angle", "angular_velocity")).transform(data)
+    x2 = SignalPipeline(("angle", "angular_velocity"), cutoff).transform(data)
     windows2 = make_windows(x2, data.lengths, 10)
     y = CommandScaler().fit(data.commands).transform(data.commands)
     with all_or_none():  # the summary and every figure, or none

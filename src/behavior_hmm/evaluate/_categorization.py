@@ -14,6 +14,7 @@ import numpy as np
 
 from behavior_hmm.cobart import CobART, primitive_sequence, transition_counts
 from behavior_hmm.data import Dataset, SignalPipeline
+from behavior_hmm.models import preset_params
 
 #: Starts whose primitive sequences the thesis lists in table 6.1 (degrees).
 TABLE_6_1_STARTS: Final[tuple[float, ...]] = (-115.0, -168.0, 86.0, 123.0)
@@ -57,7 +58,8 @@ def run_categorization_experiment(
         and the analysis: the shared tail of same-direction pairs and the primitives
         shared by opposite directions.
     """
-    pipeline = SignalPipeline(tuple(inputs))
+    # a reproduction of the thesis's §6.1: filtered as in the thesis preset
+    pipeline = SignalPipeline(tuple(inputs), preset_params("thesis", "SBLM")["cutoff_hz"])
     x_train = pipeline.transform(train)
     x_samples = pipeline.transform(samples)
     angle_train = train.column("angle")

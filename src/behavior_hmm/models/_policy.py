@@ -251,6 +251,9 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
         self._command_rates = None if learned is None else np.asarray(learned, dtype=np.float64)
+        filters = model.pipeline_.filters
+        #: cycles the filtered readings trail the robot while it moves steadily
+        self._lag = filters[0].lag_samples if filters else 0.0
         self._brake_reset()
 
     def reset(self) -> None:
@@ -296,8 +299,9 @@ class SimplePolicy(GoalTracking, RateLimited):
     def _braked(self, out: StepOutput) -> StepOutput:
         """Goal braking: ramp to rest when arriving any later would overshoot the goal.
 
-        Each cycle the goal channels' filtered values and the rate of change the current
-        command gives them (the model's learned ``command_rates_``; a model file without
+        Each cycle the goal channels' filtered values, moved on by the filter's lag (the
+        readings trail a moving robot by ``lag_samples`` cycles), and the rate of change
+        the current command gives them (the model's learned ``command_rates_``; a model file without
         them: the rate measured over ``BRAKE_RATE_CYCLES``) predict where the robot would
         come to rest if its command ramped to zero now at the rate limit (a linear ramp
         covers half the distance of the current rate). When that point reaches the
@@ -318,7 +322,9 @@ class SimplePolicy(GoalTracking, RateLimited):
                 rates = self._last @ self._command_rates
             else:  # measured (a model file from before command_rates_ was learned)
                 rates = (filtered - history[0]) / BRAKE_RATE_CYCLES
-            self._braking = self._rest_at_goal(filtered, rates, speed / self._rate + 1.0)
+            # the filtered readings trail a moving robot: where it is now
+            now = filtered + rates * self._lag
+            self._braking = self._rest_at_goal(now, rates, speed / self._rate + 1.0)
             self._brake_hold = 0
         if not self._braking:
             return self._limited(out)

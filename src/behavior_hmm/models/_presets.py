@@ -20,6 +20,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Final
 
+from behavior_hmm.data import DEFAULT_CUTOFF_HZ
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK
 from behavior_hmm.generators._motion import DEFAULT_GENERATOR_EPOCHS
@@ -66,6 +67,11 @@ class Departure:
 
 #: Every departure of ``default`` from the thesis, SBLM first (order of the ablation rows).
 DEPARTURES: Final[tuple[Departure, ...]] = (
+    Departure(
+        "cutoff_hz",
+        {"SBLM": {"cutoff_hz": 4.0}, "CBLM": {"cutoff_hz": 4.0}},
+        f"low-pass cut-off {DEFAULT_CUTOFF_HZ:g} Hz (the thesis gives none; its preset: 4 Hz)",
+    ),
     Departure(
         "onset_clock",
         {"SBLM": {"onset_clock": 0}},
