@@ -23,11 +23,15 @@ PERIOD_S = 0.016
 
 
 @pytest.fixture(scope="module")
-def approach() -> SBLM:
-    data = collect(
+def approach_data() -> Any:
+    return collect(
         "approach", [{"distance": x} for x in np.arange(0.1, 1.01, 0.15)], sim="kinematic"
     )
-    return SBLM(inputs=("distance", "angle"), epochs=30).fit(data)
+
+
+@pytest.fixture(scope="module")
+def approach(approach_data: Any) -> SBLM:
+    return SBLM(inputs=("distance", "angle"), epochs=30).fit(approach_data)
 
 
 def _cruise(
@@ -90,14 +94,11 @@ def test_braking_ramps_to_rest_inside_the_goal(approach: SBLM) -> None:
     assert np.all(ramp <= 1e-12) and np.min(ramp) == pytest.approx(-rate)
 
 
-def test_braking_allows_for_the_filters_lag() -> None:
+def test_braking_allows_for_the_filters_lag(approach_data: Any) -> None:
     """A slow filter (1 Hz: readings 14 cycles behind a moving robot) at full speed:
     braking starts from where the robot is, not where its filtered readings say it was,
     so it still comes to rest inside the goal and never drives into the object."""
-    data = collect(
-        "approach", [{"distance": x} for x in np.arange(0.1, 1.01, 0.15)], sim="kinematic"
-    )
-    slow = SBLM(inputs=("distance", "angle"), epochs=30, cutoff_hz=1.0).fit(data)
+    slow = SBLM(inputs=("distance", "angle"), epochs=30, cutoff_hz=1.0).fit(approach_data)
     assert slow.policy({"distance": 0.0})._lag > 13
     commands, distances, done, _ = _cruise(slow, True, 1.0)
     assert done

@@ -35,9 +35,9 @@ ANGLE_CHANNELS: Final[frozenset[str]] = frozenset(n for n, s in CHANNELS.items()
 
 #: Default cut-off frequency of the low-pass filter, Hz (the ``default`` preset; the thesis
 #: gives none and the ``thesis`` preset keeps the 4 Hz this project started from). The
-#: demonstrations' readings change slowly (jerk-limited, no content a 2 Hz filter cuts:
-#: nominal scores equal 4 Hz's), while sensor noise of 0.01 × a channel's range (3.6 deg,
-#: 12 mm) passes a 4 Hz filter strongly enough to switch primitives every few cycles.
+#: jerk-limited demonstrations change slowly (nominal scores within 0.2 points of 4 Hz's;
+#: docs/algorithms.md), while sensor noise of 0.01 × a channel's range (3.6 deg, 12 mm)
+#: passes a 4 Hz filter strongly enough to switch primitives every few cycles.
 DEFAULT_CUTOFF_HZ: Final[float] = 2.0
 
 
