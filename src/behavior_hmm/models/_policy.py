@@ -301,15 +301,15 @@ class SimplePolicy(GoalTracking, RateLimited):
 
         Each cycle the goal channels' filtered values, moved on by the filter's lag (the
         readings trail a moving robot by ``lag_samples`` cycles), and the rate of change
-        the current command gives them (the model's learned ``command_rates_``; a model file without
-        them: the rate measured over ``BRAKE_RATE_CYCLES``) predict where the robot would
-        come to rest if its command ramped to zero now at the rate limit (a linear ramp
-        covers half the distance of the current rate). When that point reaches the
-        goal, the command ramps to zero, so a generator that arrives too fast comes to
-        rest at its goal instead of being stopped at speed. A robot at rest inside the
-        goal's tolerance ``BRAKE_SETTLE_CYCLES`` after the ramp (with ``stop_at_rest``:
-        once the readings show rest) is done; one at rest short of it resumes its
-        generators after ``BRAKE_HOLD_CYCLES``.
+        the current command gives them (the model's learned ``command_rates_``; a model
+        file without them: the rate measured over ``BRAKE_RATE_CYCLES``) predict where the
+        robot would come to rest if its command ramped to zero now at the rate limit (a
+        linear ramp covers half the distance of the current rate). When that point
+        reaches the goal, the command ramps to zero, so a generator that arrives too fast
+        comes to rest at its goal instead of being stopped at speed. A robot at rest
+        inside the goal's tolerance ``BRAKE_SETTLE_CYCLES`` after the ramp (with
+        ``stop_at_rest``: once the readings show rest) is done; one at rest short of it
+        resumes its generators after ``BRAKE_HOLD_CYCLES``.
         """
         filtered = (self._x + 1.0) / self._gain + self._lo
         history = self._brake_history
