@@ -47,3 +47,62 @@ def probs(counts: Any) -> np.ndarray:
     c = np.asarray(counts, dtype=float)
     tot = c.sum(axis=-1, keepdims=True)
     return np.where(tot > 0, c / np.where(tot > 0, tot, 1.0), 0.0)
+
+
+def random_rows(rng: np.random.Generator, shape: tuple[int, int], kind: str) -> np.ndarray:
+    """Row-stochastic probabilities: ``dense`` (all > 0), ``sparse`` (mostly 0: at most
+    3 entries per row) or ``tied`` (small integer counts, so many entries are equal)."""
+    rows, cols = shape
+    if kind == "dense":
+        p = rng.dirichlet(np.ones(cols), rows)
+    elif kind == "sparse":
+        p = np.zeros(shape)
+        for r in range(rows):
+            support = rng.choice(cols, size=min(cols, int(rng.integers(1, 4))), replace=False)
+            p[r, support] = rng.dirichlet(np.ones(support.size))
+    else:
+        p = rng.integers(0, 3, shape).astype(float)
+        p[p.sum(axis=1) == 0, 0] = 1.0
+    return p / p.sum(axis=1, keepdims=True)
+
+
+def random_model(
+    rng: np.random.Generator, n: int, m: int, kind: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """π, A, B of a random model of ``n`` states and ``m`` categories (kinds as in
+    :func:`random_rows`); a sparse one has a state no state enters (only a start state)."""
+    a = random_rows(rng, (n, n), kind)
+    b = random_rows(rng, (n, m), "dense" if kind == "sparse" else kind)
+    if kind == "tied":
+        b[1::2] = b[::2][: n // 2]  # pairs of states that emit alike: more exact ties
+        pi = np.full(n, 1.0 / n)
+    else:
+        pi = rng.dirichlet(np.ones(n))
+    if kind == "sparse" and n > 2:
+        a[:, n - 1] = 0.0  # a state no state enters (only a start state)
+        a[a.sum(axis=1) == 0, 0] = 1.0  # every state keeps a successor
+        a /= a.sum(axis=1, keepdims=True)
+    return pi, a, b
+
+
+def log_tables(
+    pi: np.ndarray, a: np.ndarray, b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tables in log space (``-inf`` for the zeros)."""
+    with np.errstate(divide="ignore"):
+        return np.log(pi), np.log(a), np.log(b)
+
+
+def random_observations(
+    rng: np.random.Generator, pi: np.ndarray, a: np.ndarray, b: np.ndarray, t_len: int
+) -> np.ndarray:
+    """Observations sampled from the model (so that most are possible), a few at random."""
+    n, m = b.shape
+    obs = np.empty(t_len, dtype=np.int64)
+    state = rng.choice(n, p=pi)
+    for t in range(t_len):
+        obs[t] = rng.choice(m, p=b[state])
+        state = rng.choice(n, p=a[state])
+    noisy = rng.random(t_len) < 0.05
+    obs[noisy] = rng.integers(0, m, int(noisy.sum()))
+    return obs

@@ -1,7 +1,8 @@
 """Our Viterbi against hmmlearn's compiled one on the same models (identical up to ties).
 
 Among equally likely predecessors we keep the lowest state index; hmmlearn's backtracking
-keeps the highest. Where that makes the paths differ, both must be optimal.
+keeps the highest. Where that makes the paths differ, both must be optimal. Every test
+runs once per kernel (the ``kernel`` fixture: numpy, and numba where it is installed).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ hmmlearn_hmm = pytest.importorskip(
     "hmmlearn.hmm",
     reason="hmmlearn is not installed (pip install 'behavior-hmm[bench]' or '[test]')",
 )
+
+pytestmark = pytest.mark.usefixtures("kernel")
 
 
 def _theirs(hmm: BehaviorHMM) -> object:
@@ -93,6 +96,7 @@ def test_blocked_viterbi_matches_hmmlearn(
     import behavior_hmm.hmm._viterbi as impl
 
     assert _ONE_BLOCK_MAX > 0
+    monkeypatch.setattr(impl, "_kernel_setting", "numpy")  # the blocks are numpy's
     monkeypatch.setattr(impl, "_ONE_BLOCK_MAX", 0)
     monkeypatch.setattr(impl, "_BLOCK_ELEMENTS", 7 * 23)
     hmm = _counted(rng, 23, 50, 3000, smoothing=0.5)

@@ -1,4 +1,8 @@
-"""Viterbi in log space against brute-force enumeration, long sequences, impossible paths."""
+"""Viterbi in log space against brute-force enumeration, long sequences, impossible paths.
+
+Every test runs once per kernel (the ``kernel`` fixture: numpy, and numba where it is
+installed).
+"""
 
 from __future__ import annotations
 
@@ -15,6 +19,8 @@ from hypothesis.extra.numpy import arrays
 
 from behavior_hmm.errors import DatasetError, UnreachableGoalError
 from behavior_hmm.hmm import BehaviorHMM
+
+pytestmark = pytest.mark.usefixtures("kernel")
 
 
 def joint_log_prob(

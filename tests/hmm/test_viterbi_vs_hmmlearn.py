@@ -5,8 +5,10 @@ from 1 to 200 states, so that every forward pass of ``viterbi_log`` is used: the
 stores the best predecessors (up to 16 states), the dense one (one block or blocks of
 rows) and the sparse one. The paths must be identical except among equally likely
 predecessors (we keep the lowest state index, hmmlearn's backtracking the highest), where
-both paths must be equally likely, and the log probabilities must agree. No timing here:
-``behavior-hmm bench hmm`` compares the speed.
+both paths must be equally likely, and the log probabilities must agree. Every test runs
+once per kernel (the ``kernel`` fixture: numpy, and numba where it is installed); the
+numpy forward passes are also compared with the default kernel, to the bit. No timing
+here: ``behavior-hmm bench hmm`` compares the speed.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from hmm_testing import log_tables, random_model, random_observations
 
 import behavior_hmm.hmm._viterbi as impl
 from behavior_hmm.hmm._viterbi import viterbi_log
@@ -25,48 +28,9 @@ hmmlearn_hmm = pytest.importorskip(
     reason="hmmlearn is not installed (pip install 'behavior-hmm[bench]' or '[test]')",
 )
 
+pytestmark = pytest.mark.usefixtures("kernel")
+
 REL = 1e-9
-
-
-def _rows(rng: np.random.Generator, shape: tuple[int, int], kind: str) -> np.ndarray:
-    """Row-stochastic probabilities: ``dense`` (all > 0), ``sparse`` (mostly 0: at most
-    3 entries per row) or ``tied`` (small integer counts, so many entries are equal)."""
-    rows, cols = shape
-    if kind == "dense":
-        p = rng.dirichlet(np.ones(cols), rows)
-    elif kind == "sparse":
-        p = np.zeros(shape)
-        for r in range(rows):
-            support = rng.choice(cols, size=min(cols, int(rng.integers(1, 4))), replace=False)
-            p[r, support] = rng.dirichlet(np.ones(support.size))
-    else:
-        p = rng.integers(0, 3, shape).astype(float)
-        p[p.sum(axis=1) == 0, 0] = 1.0
-    return p / p.sum(axis=1, keepdims=True)
-
-
-def _model(
-    rng: np.random.Generator, n: int, m: int, kind: str
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    a = _rows(rng, (n, n), kind)
-    b = _rows(rng, (n, m), "dense" if kind == "sparse" else kind)
-    if kind == "tied":
-        b[1::2] = b[::2][: n // 2]  # pairs of states that emit alike: more exact ties
-        pi = np.full(n, 1.0 / n)
-    else:
-        pi = rng.dirichlet(np.ones(n))
-    if kind == "sparse" and n > 2:
-        a[:, n - 1] = 0.0  # a state no state enters (only a start state)
-        a[a.sum(axis=1) == 0, 0] = 1.0  # every state keeps a successor
-        a /= a.sum(axis=1, keepdims=True)
-    return pi, a, b
-
-
-def _logs(
-    pi: np.ndarray, a: np.ndarray, b: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    with np.errstate(divide="ignore"):
-        return np.log(pi), np.log(a), np.log(b)
 
 
 def _theirs(
@@ -90,26 +54,11 @@ def _joint(
     return float(total)
 
 
-def _observations(
-    rng: np.random.Generator, pi: np.ndarray, a: np.ndarray, b: np.ndarray, t_len: int
-) -> np.ndarray:
-    """Observations sampled from the model (so that most are possible), a few at random."""
-    n, m = b.shape
-    obs = np.empty(t_len, dtype=np.int64)
-    state = rng.choice(n, p=pi)
-    for t in range(t_len):
-        obs[t] = rng.choice(m, p=b[state])
-        state = rng.choice(n, p=a[state])
-    noisy = rng.random(t_len) < 0.05
-    obs[noisy] = rng.integers(0, m, int(noisy.sum()))
-    return obs
-
-
 def _check(
     pi: np.ndarray, a: np.ndarray, b: np.ndarray, obs: np.ndarray
 ) -> tuple[np.ndarray, float]:
     """Assert that ours and hmmlearn's agree; return our path and log probability."""
-    log_pi, log_a, log_b = _logs(pi, a, b)
+    log_pi, log_a, log_b = log_tables(pi, a, b)
     states, log_prob, dead = viterbi_log(log_pi, log_a, log_b, obs)
     their_log_prob, their_states = _theirs(pi, a, b, obs)
     assert states.dtype == np.int64 and states.shape == obs.shape
@@ -135,8 +84,8 @@ SIZES = [(1, 3), (2, 4), (5, 12), (16, 40), (17, 40), (50, 200), (200, 400)]
 def test_random_models_match_hmmlearn(rng: np.random.Generator, n: int, m: int, kind: str) -> None:
     t_len = 120 if n >= 200 else 300
     for _ in range(3):
-        pi, a, b = _model(rng, n, m, kind)
-        _check(pi, a, b, _observations(rng, pi, a, b, t_len))
+        pi, a, b = random_model(rng, n, m, kind)
+        _check(pi, a, b, random_observations(rng, pi, a, b, t_len))
 
 
 @pytest.mark.parametrize("t_len", [1, 2, 3])
@@ -145,22 +94,22 @@ def test_very_short_sequences_match_hmmlearn(
     rng: np.random.Generator, t_len: int, kind: str
 ) -> None:
     for n in (1, 3, 20):
-        pi, a, b = _model(rng, n, 2 * n, kind)
-        _check(pi, a, b, _observations(rng, pi, a, b, t_len))
+        pi, a, b = random_model(rng, n, 2 * n, kind)
+        _check(pi, a, b, random_observations(rng, pi, a, b, t_len))
 
 
 @pytest.mark.parametrize("n", [4, 30])
 def test_impossible_sequences_agree_with_hmmlearn(rng: np.random.Generator, n: int) -> None:
-    pi, a, b = _model(rng, n, 2 * n, "sparse")
+    pi, a, b = random_model(rng, n, 2 * n, "sparse")
     b[:, -1] = 0.0  # nobody emits the last category ...
     b[:, 0] += 1.0  # ... (rows stay distributions)
     b /= b.sum(axis=1, keepdims=True)
-    obs = _observations(rng, pi, a, b, 50)
+    obs = random_observations(rng, pi, a, b, 50)
     obs[obs == 2 * n - 1] = 0
     obs[37] = 2 * n - 1
     _, log_prob = _check(pi, a, b, obs)
     assert log_prob == -np.inf
-    log_pi, log_a, log_b = _logs(pi, a, b)
+    log_pi, log_a, log_b = log_tables(pi, a, b)
     assert viterbi_log(log_pi, log_a, log_b, obs)[2] == 37
 
 
@@ -187,8 +136,9 @@ _SHIPPED = {
 
 @pytest.fixture(params=["predecessors", "one block", "blocks", "sparse"])
 def forward(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> Iterator[str]:
-    """Force one forward pass of ``viterbi_log`` whatever the model's size and density."""
+    """Force one numpy forward pass of ``viterbi_log`` whatever the model's size and density."""
     name = str(request.param)
+    monkeypatch.setattr(impl, "_kernel_setting", "numpy")
     monkeypatch.setattr(impl, "_PREDECESSORS_MAX_STATES", 10**9 if name == "predecessors" else 0)
     monkeypatch.setattr(impl, "_SPARSE_MAX_DENSITY", 1.0 if name == "sparse" else -1.0)
     monkeypatch.setattr(impl, "_ONE_BLOCK_MAX", 10**9 if name == "one block" else 0)
@@ -198,16 +148,18 @@ def forward(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> 
 
 @pytest.mark.parametrize("kind", ["dense", "sparse", "tied"])
 def test_every_forward_pass_gives_the_same_result(
-    rng: np.random.Generator, forward: str, kind: str
+    rng: np.random.Generator, forward: str, kind: str, kernel: str
 ) -> None:
-    """Each forward pass on models of any size: the same path and log probability as
-    the default choice, to the bit, and hmmlearn's up to ties."""
+    """Each numpy forward pass on models of any size: the same path and log probability
+    as the default choice of the kernel under test (numpy's or numba's), to the bit, and
+    hmmlearn's up to ties."""
     for n in (1, 2, 9, 23, 40):
-        pi, a, b = _model(rng, n, 3 * n, kind)
-        obs = _observations(rng, pi, a, b, 150)
+        pi, a, b = random_model(rng, n, 3 * n, kind)
+        obs = random_observations(rng, pi, a, b, 150)
         states, log_prob = _check(pi, a, b, obs)
         with pytest.MonkeyPatch.context() as shipped:
             for name, value in _SHIPPED.items():
                 shipped.setattr(impl, name, value)
-            expected = viterbi_log(*_logs(pi, a, b), obs)
+            shipped.setattr(impl, "_kernel_setting", kernel)
+            expected = viterbi_log(*log_tables(pi, a, b), obs)
         assert np.array_equal(states, expected[0]) and log_prob == expected[1]

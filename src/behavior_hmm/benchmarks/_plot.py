@@ -99,11 +99,17 @@ def plot_hmm(results: dict[str, Any], out: Path) -> Path:
     rows = results["sizes"]
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     labels = [f"{r['states']} × {r['steps']}" for r in rows]
-    ours = [r["ours_us_median"] / 1000 for r in rows]
-    theirs = [(r.get("hmmlearn_us_median") or 0) / 1000 for r in rows]
+    kernel = results.get("kernel", "numpy")  # files written before the numba kernel: numpy
+    bars = [(f"ours (BehaviorHMM.viterbi, {kernel})", "ours_us_median")]
+    if any(r.get("ours_numpy_us_median") for r in rows):  # numba ran: numpy timed beside it
+        bars.append(("ours (numpy kernel)", "ours_numpy_us_median"))
+    bars.append(("hmmlearn (decode, viterbi)", "hmmlearn_us_median"))
+    width = 0.8 / len(bars)
     xs = range(len(rows))
-    ax.bar([x - 0.2 for x in xs], ours, 0.4, label="ours (BehaviorHMM.viterbi)")
-    ax.bar([x + 0.2 for x in xs], theirs, 0.4, label="hmmlearn (decode, viterbi)")
+    for k, (label, key) in enumerate(bars):
+        shift = (k - (len(bars) - 1) / 2) * width
+        values = [(r.get(key) or 0) / 1000 for r in rows]
+        ax.bar([x + shift for x in xs], values, width, label=label)
     ax.set_xticks(list(xs), labels)
     ax.set_yscale("log")
     ax.set_xlabel("states × steps")

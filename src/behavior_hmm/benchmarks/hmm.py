@@ -13,10 +13,19 @@ both decode the same random observation sequence:
 * ``*_kernel_us_median``: the bare kernels, ``viterbi_log`` against hmmlearn's compiled
   ``_hmmc.viterbi`` given the frame log-likelihoods (informative; private functions).
 
-The two sides are timed alternately, repeat by repeat, so that load on a shared machine
-hits both alike. ``paths_agree`` says whether the decoded paths are identical (and the
-log probabilities are compared too). hmmlearn is an optional dependency
-(``pip install 'behavior-hmm[bench]'``); without it only our side is timed.
+``kernel`` (top level) names the forward pass "ours" ran: ``"numba"`` when numba is
+installed (the ``fast`` extra), else ``"numpy"``. With numba, the numpy path is timed in
+the same run too (``ours_numpy_us_median`` and ``ours_numpy_kernel_us_median``, forced
+with ``set_kernel("numpy")``), so that ``numpy_over_numba`` is the compiled kernel's
+speed-up measured under the same load, and ``kernels_agree`` says whether both gave the
+same path and log probability (they must, to the bit). The compiled kernels are loaded
+(or compiled, on the first run after an install) before anything is timed:
+``jit_warmup_s`` is that time, which a decoding pays once per process.
+
+All sides are timed alternately, repeat by repeat, so that load on a shared machine
+hits them alike. ``paths_agree`` says whether the decoded paths are identical to
+hmmlearn's (and the log probabilities are compared too). hmmlearn is an optional
+dependency (``pip install 'behavior-hmm[bench]'``); without it only our side is timed.
 
 ``sparse`` repeats the comparison on models counted without smoothing, as trained
 Behavior-HMMs are: each state has a few successors and emits a few categories, so most
@@ -91,21 +100,34 @@ def _hmmlearn_model(hmm: Any) -> Any:
     return theirs
 
 
-def _alternate(fns: dict[str, Callable[[], Any]], repeats: int) -> dict[str, float]:
-    """Median µs of each function, the functions timed in turn within every repeat."""
+def _alternate(
+    fns: dict[str, Callable[[], Any]], repeats: int, numpy_kernel: frozenset[str] = frozenset()
+) -> dict[str, float]:
+    """Median µs of each function, the functions timed in turn within every repeat.
+
+    The functions named in ``numpy_kernel`` run with ``viterbi_log``'s numpy forward
+    pass (switched outside the timed interval), the others with the default kernel.
+    """
+    from behavior_hmm.hmm._viterbi import set_kernel
+
     times: dict[str, list[float]] = {name: [] for name in fns}
     for _ in range(repeats):
         for name, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            times[name].append((time.perf_counter() - t0) * 1e6)
+            previous = set_kernel("numpy") if name in numpy_kernel else None
+            try:
+                t0 = time.perf_counter()
+                fn()
+                times[name].append((time.perf_counter() - t0) * 1e6)
+            finally:
+                if previous is not None:
+                    set_kernel(previous)
     return {name: float(np.median(t)) for name, t in times.items()}
 
 
 def _size(
     n_states: int, steps: int, repeats: int, rng: np.random.Generator, sparse: bool = False
 ) -> dict[str, Any]:
-    from behavior_hmm.hmm._viterbi import viterbi_log
+    from behavior_hmm.hmm._viterbi import set_kernel, viterbi_kernel, viterbi_log
 
     n_obs = CATEGORIES_PER_STATE * n_states
     if sparse:
@@ -126,6 +148,18 @@ def _size(
         "ours": lambda: hmm.viterbi(observations),
         "ours_kernel": lambda: viterbi_log(hmm.log_pi_, hmm.log_A_, hmm.log_B_, observations),
     }
+    numpy_kernel: frozenset[str] = frozenset()
+    if viterbi_kernel() == "numba":  # the numpy path too, for the speed-up in one run
+        fns["ours_numpy"], fns["ours_numpy_kernel"] = fns["ours"], fns["ours_kernel"]
+        numpy_kernel = frozenset({"ours_numpy", "ours_numpy_kernel"})
+        previous = set_kernel("numpy")
+        try:
+            numpy_states, numpy_log_prob = hmm.viterbi(observations)
+        finally:
+            set_kernel(previous)
+        row["kernels_agree"] = bool(
+            np.array_equal(ours_states, numpy_states) and ours_log_prob == numpy_log_prob
+        )
     try:
         from hmmlearn import _hmmc
     except ImportError:
@@ -140,31 +174,44 @@ def _size(
         their_log_prob, their_states = theirs.decode(x, algorithm="viterbi")
         row["paths_agree"] = bool(np.array_equal(ours_states, their_states))
         row["log_prob_abs_diff"] = abs(float(ours_log_prob) - float(their_log_prob))
-    medians = _alternate(fns, repeats)
+    medians = _alternate(fns, repeats, numpy_kernel)
     for name, value in medians.items():
         row[f"{name}_us_median"] = value
     if _hmmc is not None:
         row["ours_over_hmmlearn"] = medians["ours"] / medians["hmmlearn"]
     else:
         row["hmmlearn_us_median"] = None
+    if numpy_kernel:
+        row["numpy_over_numba"] = medians["ours_numpy"] / medians["ours"]
+    else:
+        row["ours_numpy_us_median"] = None
     return row
 
 
-def run(quick: bool = False) -> dict[str, Any]:
+def run(quick: bool = False, *, sizes: tuple[tuple[int, int], ...] = SIZES) -> dict[str, Any]:
+    """Time the Viterbi decodings at ``sizes`` ((states, steps) pairs); see the module."""
+    from behavior_hmm.hmm._viterbi import viterbi_kernel
+
+    t0 = time.perf_counter()
+    kernel = viterbi_kernel()  # imports numba and loads (or compiles) the kernels
+    jit_warmup_s = time.perf_counter() - t0
     rng = np.random.default_rng(0)
     rows = []
     sparse_rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # hmmlearn's deprecation notices, not ours to fix
-        for n_states, steps in SIZES:
+        for n_states, steps in sizes:
             small = n_states * n_states * steps < 10**6
             repeats = (21 if quick else 101) if small else (3 if quick else 21)
             rows.append(_size(n_states, steps, repeats, rng))
-        for n_states, steps in SIZES:
+        for n_states, steps in sizes:
             small = n_states * n_states * steps < 10**6
             repeats = (21 if quick else 51) if small else (3 if quick else 7)
             sparse_rows.append(_size(n_states, steps, repeats, rng, sparse=True))
-    results: dict[str, Any] = {"sizes": rows, "sparse": sparse_rows}
+    results: dict[str, Any] = {"sizes": rows, "sparse": sparse_rows, "kernel": kernel}
+    if kernel == "numba":
+        results["jit_warmup_s"] = jit_warmup_s
+        results["kernels_agree"] = all(row["kernels_agree"] for row in rows + sparse_rows)
     try:
         import hmmlearn
 

@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 from numpy.typing import NDArray
+
+from behavior_hmm.hmm import _compiled
+
+KernelSetting = Literal["auto", "numba", "numpy"]
 
 #: Elements of the (rows, N) score buffer in one block of a large model: the block of
 #: scores stays in the cache between the add and the max (≈ 256 KB).
@@ -16,6 +22,39 @@ _SPARSE_MAX_DENSITY = 0.2
 #: Up to this many states the forward pass also stores every best predecessor (an argmax
 #: per state and step), which costs less than recomputing them while backtracking.
 _PREDECESSORS_MAX_STATES = 16
+#: Which forward pass :func:`viterbi_log` runs; see :func:`set_kernel`.
+_kernel_setting: KernelSetting = "auto"
+
+
+def set_kernel(setting: KernelSetting) -> KernelSetting:
+    """Choose the forward pass of :func:`viterbi_log`, for this process; return the old setting.
+
+    Parameters
+    ----------
+    setting
+        ``"auto"`` (the default): the numba-compiled kernel when numba is installed, the
+        numpy one otherwise; ``"numba"``: the compiled kernel (ImportError without
+        numba); ``"numpy"``: the numpy forward passes even when numba is installed (for
+        tests and benchmarks: the results are identical, only the speed differs).
+    """
+    global _kernel_setting
+    if setting not in ("auto", "numba", "numpy"):
+        raise ValueError(f"unknown Viterbi kernel {setting!r}: 'auto', 'numba' or 'numpy'")
+    if setting == "numba" and _compiled.kernels() is None:
+        raise ImportError("the numba kernel needs numba: pip install 'behavior-hmm[fast]'")
+    previous = _kernel_setting
+    _kernel_setting = setting
+    return previous
+
+
+def viterbi_kernel() -> Literal["numba", "numpy"]:
+    """The forward pass :func:`viterbi_log` runs now (on sequences of two or more steps)."""
+    return "numpy" if _kernels() is None else "numba"
+
+
+def _kernels() -> _compiled.Kernels | None:
+    """The compiled kernels when the setting and the installation allow them."""
+    return None if _kernel_setting == "numpy" else _compiled.kernels()
 
 
 def viterbi_log(
@@ -46,22 +85,29 @@ def viterbi_log(
 
     Notes
     -----
-    Each step of the forward pass is a fixed handful of numpy calls on buffers allocated
-    once, so that small models pay little per step and large ones stream through the
-    cache. From 17 states on, the forward pass keeps only the best scores, as hmmlearn's
-    compiled Viterbi does: the previous scores are copied into every row of a tile, one
-    flat add with the transposed transitions gives ``scores[j, i] = log a_ij + delta_i``,
-    one segmented max (``maximum.reduceat``) the best score of each state, and one add
-    the emissions; a large table is scored in blocks of rows that stay in the cache, a
-    sparse one (mostly ``-inf``) only at its possible transitions. Backtracking then
-    recomputes the best predecessor of each position from the stored scores (one add
+    There are two forward passes, with identical results (path, log probability and
+    ``dead_at``, to the bit). When numba is installed (the ``fast`` extra), a compiled
+    loop (:mod:`behavior_hmm.hmm._compiled`) scores every transition in the order below
+    and stores the best predecessors, then follows them back. Otherwise, or after
+    ``set_kernel("numpy")`` (:func:`set_kernel`; :func:`viterbi_kernel` says which pass
+    runs), the numpy forward passes described next run.
+
+    Each step of the numpy forward pass is a fixed handful of numpy calls on buffers
+    allocated once, so that small models pay little per step and large ones stream
+    through the cache. From 17 states on, the forward pass keeps only the best scores, as
+    hmmlearn's compiled Viterbi does: the previous scores are copied into every row of a
+    tile, one flat add with the transposed transitions gives ``scores[j, i] = log a_ij +
+    delta_i``, one segmented max (``maximum.reduceat``) the best score of each state, and
+    one add the emissions; a large table is scored in blocks of rows that stay in the
+    cache, a sparse one (mostly ``-inf``) only at its possible transitions. Backtracking
+    then recomputes the best predecessor of each position from the stored scores (one add
     and one argmax). Smaller models store the best predecessors during the forward pass
     instead (an argmax per row of the scores).
 
-    The sums are formed in hmmlearn's order (``delta_i + log a_ij``, then ``+ log b_j``),
-    so both give the same log probability, to the bit, and the same path except among
-    equally likely predecessors: the argmax keeps the lowest state index, hmmlearn's
-    backtracking the highest; either path is optimal.
+    Both passes form the sums in hmmlearn's order (``delta_i + log a_ij``, then
+    ``+ log b_j``), so all give the same log probability, to the bit, and the same path
+    except among equally likely predecessors: both our passes keep the lowest state index
+    (the argmax's rule), hmmlearn's backtracking the highest; either path is optimal.
     """
     n = log_pi.shape[0]
     t_len = observations.shape[0]
@@ -70,6 +116,9 @@ def viterbi_log(
     np.add(log_pi, emit[0], out=lattice[0])
     if not np.isfinite(lattice[0].max()):
         return np.zeros(t_len, dtype=np.int64), float("-inf"), 0
+    kernels = _kernels() if t_len > 1 else None
+    if kernels is not None:
+        return _compiled_viterbi(kernels, log_A, emit, lattice)
     log_at = _aligned_empty((n, n))
     log_at[...] = log_A.T  # row j = log a_·j: the transitions into state j
     psi = None
@@ -80,12 +129,37 @@ def viterbi_log(
     state = int(lattice[-1].argmax())
     log_prob = float(lattice[-1, state])
     if not np.isfinite(log_prob):
-        # Once every state is impossible, every later one is too (-inf only propagates).
-        alive = np.isfinite(lattice.max(axis=1))
-        return np.zeros(t_len, dtype=np.int64), float("-inf"), int(np.argmin(alive))
+        return _impossible(lattice)
     if psi is not None:
         return _follow(psi, state), log_prob, -1
     return _backtrack(log_at, lattice, state), log_prob, -1
+
+
+def _compiled_viterbi(
+    kernels: _compiled.Kernels,
+    log_A: NDArray[np.float64],
+    emit: NDArray[np.float64],
+    lattice: NDArray[np.float64],
+) -> tuple[NDArray[np.int64], float, int]:
+    """The rest of :func:`viterbi_log` (``lattice[0]`` filled and possible), compiled."""
+    t_len, n = lattice.shape
+    psi = np.empty((t_len, n), dtype=np.intp)
+    log_a = np.ascontiguousarray(log_A, dtype=np.float64)
+    kernels.forward(log_a, np.ascontiguousarray(emit), lattice, psi)
+    state = int(lattice[-1].argmax())
+    log_prob = float(lattice[-1, state])
+    if not np.isfinite(log_prob):
+        return _impossible(lattice)
+    states = np.empty(t_len, dtype=np.int64)
+    kernels.follow(psi, state, states)
+    return states, log_prob, -1
+
+
+def _impossible(lattice: NDArray[np.float64]) -> tuple[NDArray[np.int64], float, int]:
+    """:func:`viterbi_log`'s answer when no state is possible at the last position."""
+    # Once every state is impossible, every later one is too (-inf only propagates).
+    alive = np.isfinite(lattice.max(axis=1))
+    return np.zeros(lattice.shape[0], dtype=np.int64), float("-inf"), int(np.argmin(alive))
 
 
 def _emissions(log_B: NDArray[np.float64], observations: NDArray[np.int64]) -> NDArray[np.float64]:
