@@ -79,7 +79,8 @@ def test_a_given_env_is_used() -> None:
 
 def test_default_starts_are_used_without_starts() -> None:
     ds = collect("approach", None, sim="kinematic")
-    assert len(ds) == 19
+    assert len(ds) == 2 * 19  # each start once nominally, once corrected (BehaviorSpec)
+    assert len(ds.metadata["starts"]) == 19
     assert ds.metadata["starts"][0] == {"angle": 0.0, "distance": 0.1}
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.models import SBLM
-from behavior_hmm.teach import collect
+from behavior_hmm.teach import DEFAULT_CORRECTION_NOISE, collect
 
 STARTS = [{"distance": x} for x in (0.3, 0.6, 0.9)]
 
@@ -21,7 +21,11 @@ def test_corrective_copies_follow_the_nominal_ones(corrected) -> None:  # type: 
     nominal = collect("approach", STARTS, sim="kinematic")
     assert len(corrected) == 2 * len(nominal)
     assert corrected.metadata["corrective_episodes"] == [3, 4, 5]
-    assert corrected.metadata["corrections"] == {"copies": 1, "noise": 0.08}
+    assert corrected.metadata["corrections"] == {
+        "copies": 1,
+        "noise": 0.08,
+        "disturbs": ["angle"],
+    }
     eps = list(corrected.episodes())
     for i, ep in enumerate(nominal.episodes()):
         assert np.array_equal(eps[i].commands, ep.commands)  # nominal ones unchanged
@@ -50,6 +54,62 @@ def test_corrections_train_the_generators_not_the_plan(corrected) -> None:  # ty
     assert model.delta_scale_ == plain.delta_scale_
     # the generators saw more rows: the corrective ones
     assert model.generators_.n_train_.sum() > plain.generators_.n_train_.sum()
+
+
+def test_the_disturbance_turns_the_robot_without_changing_its_speed() -> None:
+    from behavior_hmm.teach._demonstrator import _Disturbance
+
+    disturbance = _Disturbance(sigma=0.5, period=0.016, seed=3)
+    command = np.array([1.0, 1.0])
+    moved = [disturbance.applied(command, limit=10.0) - command for _ in range(200)]
+    assert max(abs(d[1]) for d in moved) > 0.05  # it does turn the robot
+    for left, right in moved:
+        assert left == pytest.approx(-right)  # wheels apart by as much: no speed change
+
+
+def test_models_that_cannot_see_the_heading_learn_from_the_nominal_runs_only(  # type: ignore[no-untyped-def]
+    corrected,
+) -> None:
+    nominal = collect("approach", STARTS, sim="kinematic")
+    blind = SBLM(inputs=("distance",), epochs=5).fit(corrected)
+    plain = SBLM(inputs=("distance",), epochs=5).fit(nominal)
+    assert np.array_equal(blind.generators_.n_train_, plain.generators_.n_train_)
+    for mine, theirs in zip(blind.generators_.coefs_, plain.generators_.coefs_, strict=True):
+        assert np.array_equal(mine, theirs)  # the same networks, weight for weight
+    # a model that sees the heading learns from them, unless told not to (the thesis)
+    seeing = SBLM(inputs=("distance", "angle"), epochs=5)
+    assert seeing.fit(corrected).generators_.n_train_.sum() > blind.generators_.n_train_.sum()
+    off = SBLM(inputs=("distance", "angle"), epochs=5, learn_corrections=False).fit(corrected)
+    same = SBLM(inputs=("distance", "angle"), epochs=5).fit(nominal)
+    assert np.array_equal(off.generators_.n_train_, same.generators_.n_train_)
+
+
+def test_the_approachs_default_grid_comes_with_one_corrective_copy_per_start() -> None:
+    from behavior_hmm.teach import behavior_spec, default_starts
+
+    grid = default_starts("approach")
+    data = collect("approach", sim="kinematic")
+    assert behavior_spec("approach").corrections == 1
+    assert data.metadata["corrective_episodes"] == list(range(len(grid), 2 * len(grid)))
+    assert data.metadata["corrections"]["noise"] == DEFAULT_CORRECTION_NOISE
+    # starts of one's own, or a behavior without corrections: nominal runs only
+    assert "corrective_episodes" not in collect("approach", STARTS, sim="kinematic").metadata
+    assert behavior_spec("turn").corrections == 0
+
+
+def test_a_composite_behavior_cannot_declare_corrections() -> None:
+    from behavior_hmm.teach import BehaviorSpec, behavior_spec
+
+    ta = behavior_spec("turn-approach")
+    with pytest.raises(ConfigError, match="0 for a composite"):
+        BehaviorSpec(
+            "ta-corrected",
+            dict(ta.goal),
+            ta.phases,
+            ta.train_starts,
+            components=ta.components,
+            corrections=1,
+        )
 
 
 @pytest.mark.parametrize(

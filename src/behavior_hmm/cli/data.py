@@ -135,12 +135,13 @@ def collect(
     env: EnvOption = None,
     env_kwargs: EnvKwargsOption = None,
     corrections: Annotated[
-        int,
+        int | None,
         typer.Option(
             help="Corrective demonstrations per start, after the nominal ones: the teacher "
-            "corrects a smooth disturbance of its wheels (DART-style)"
+            "corrects a smooth disturbance of its heading (DART-style). Default: the "
+            "behavior's own on its default grid (approach: 1), 0 with --starts"
         ),
-    ] = 0,
+    ] = None,
     correction_noise: Annotated[
         float | None,
         typer.Option(
@@ -153,8 +154,9 @@ def collect(
 
     Everything is checked before the first episode runs; on any error nothing is
     written and an existing OUT is left as it was. With --corrections K each start is
-    also demonstrated K more times while a smooth disturbance pushes the wheels off the
-    teacher's command and the teacher corrects it (the dataset records its command).
+    also demonstrated K more times while a smooth disturbance turns the robot off the
+    teacher's course and the teacher corrects it (the dataset records its command); the
+    approach's default grid comes with one such copy per start.
 
     Example: behavior-hmm collect turn --sim kinematic -o data/turn.parquet
     """
@@ -182,6 +184,8 @@ def collect(
         )
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
+    if corrections is None:
+        corrections = behavior_spec(behavior).corrections if starts is None else 0
     if corrections < 0:
         raise ConfigError(f"--corrections must be >= 0, got {corrections}")
     if correction_noise is not None and not 0.0 < correction_noise <= 0.5:

@@ -62,7 +62,7 @@ def demo(
     from behavior_hmm.evaluate import evaluate_model
     from behavior_hmm.models import CBLM, SBLM
     from behavior_hmm.sim import make_env
-    from behavior_hmm.teach import default_starts, test_starts
+    from behavior_hmm.teach import behavior_spec, default_starts, test_starts
     from behavior_hmm.viz import (
         plot_demonstrations,
         plot_trace,
@@ -77,7 +77,14 @@ def demo(
     out.mkdir(parents=True, exist_ok=True)
     datasets = {}
     for behavior in ("turn", "approach", "turn-approach"):
-        dataset = collect_with_progress(behavior, default_starts(behavior), sim, seed, 0.0)
+        dataset = collect_with_progress(
+            behavior,
+            default_starts(behavior),
+            sim,
+            seed,
+            0.0,
+            corrections=behavior_spec(behavior).corrections,
+        )
         data.write(dataset, out / f"{behavior}.parquet")
         plot_demonstrations(dataset, out / f"{behavior}_demonstrations.png")
         datasets[behavior] = dataset

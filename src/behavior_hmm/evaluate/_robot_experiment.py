@@ -46,7 +46,13 @@ def run_robot_experiment(
     """
     from behavior_hmm.models import CBLM, SBLM
     from behavior_hmm.runtime import Robot
-    from behavior_hmm.teach import collect, default_starts, scaled_starts, test_starts
+    from behavior_hmm.teach import (
+        behavior_spec,
+        collect,
+        default_starts,
+        scaled_starts,
+        test_starts,
+    )
 
     robot = Robot(env)
     steps = 2 + len(ROBOT_TASKS)
@@ -63,6 +69,7 @@ def run_robot_experiment(
             b,
             scaled_starts(default_starts(b), env),
             seed=seed,
+            corrections=behavior_spec(b).corrections,  # the default grid's recipe
             env=env,
             env_name=env_name,
         )

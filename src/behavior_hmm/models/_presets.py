@@ -135,6 +135,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "ramp to rest at the rate limit where the ramp ends at the goal, not arrive at speed",
     ),
     Departure(
+        "learn_corrections",
+        {"SBLM": {"learn_corrections": False}},
+        "generators also learn from runs where the teacher corrects a disturbed heading",
+    ),
+    Departure(
         "path_self_loops",
         {"SBLM": {"path_self_loops": "keep"}, "CBLM": {"path_self_loops": "keep"}},
         "plan on c_ij / (1 − c_ii), the next different category (thesis: −log c_ij)",

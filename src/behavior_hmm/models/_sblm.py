@@ -164,6 +164,14 @@ class SBLM(LearnedBehavior):
         fast comes to rest at its goal instead of being stopped at speed (approach's
         largest change per cycle 27.5× the teacher's without it, 1.6× with it).
         ``False``: the thesis's stop.
+    learn_corrections
+        If true (default), the generators also learn from the dataset's corrective
+        demonstrations (``collect --corrections``; the approach's default grid has one per
+        start), provided the inputs include every channel their disturbance moves (the
+        metadata's ``corrections.disturbs``: the bearing). A model that cannot see the
+        disturbance cannot tell a correction from noise (approach on {distance}: 88.1 %,
+        13/15 with them, 97.6 % without) and, like ``False`` (the thesis, which had
+        none), learns from the nominal demonstrations only.
     counting, smoothing, path_self_loops
         Behavior-HMM estimation options (see :class:`~behavior_hmm.hmm.BehaviorHMM`).
     random_state
@@ -220,6 +228,7 @@ class SBLM(LearnedBehavior):
         dcm_floor: float = 0.3,
         command_rate_limit: float = 1.5,
         goal_braking: bool = True,
+        learn_corrections: bool = True,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -246,17 +255,26 @@ class SBLM(LearnedBehavior):
         self.dcm_floor = dcm_floor
         self.command_rate_limit = command_rate_limit
         self.goal_braking = goal_braking
+        self.learn_corrections = learn_corrections
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
         self.random_state = random_state
+
+    def _learns_corrections(self, dataset: Dataset, inputs: Sequence[str]) -> bool:
+        """Whether the generators learn from the dataset's corrective demonstrations."""
+        if not self.learn_corrections or nominal_episodes(dataset).all():
+            return False
+        # datasets from before the metadata said what the disturbance moves: every channel
+        disturbs = (dataset.metadata.get("corrections") or {}).get("disturbs")
+        return disturbs is None or set(disturbs) <= set(inputs)
 
     # ------------------------------------------------------------------ params
     def check_params(self) -> None:
         """Refuse parameters out of range (ConfigError) before any data is read."""
         super().check_params()
         self._checked_inputs()
-        for name in ("primitive_recognition", "stop_at_rest", "goal_braking"):
+        for name in ("primitive_recognition", "stop_at_rest", "goal_braking", "learn_corrections"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         size = self.batch_size
@@ -319,6 +337,8 @@ class SBLM(LearnedBehavior):
         inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        if not self._learns_corrections(dataset, inputs):
+            dataset = dataset.subset(np.flatnonzero(nominal_episodes(dataset)))
         pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths

@@ -187,11 +187,15 @@ class Teacher:
 
         ``perturbation`` > 0 makes a *corrective* demonstration (DART-style): while the
         teacher runs its phases, the wheels receive its command plus a smooth random
-        disturbance (an Ornstein-Uhlenbeck process with a 0.5 s correlation time on the
-        wheels' common and differential parts, sigma = ``perturbation`` x the robot's
-        top wheel speed, drawn from ``seed``); the teacher keeps correcting in closed
-        loop, and the dataset records its own command, so the generators see how to
-        recover from states the nominal demonstrations never visit.
+        disturbance of their difference, which turns the robot (an Ornstein-Uhlenbeck
+        process with a 0.5 s correlation time, sigma = ``perturbation`` x the robot's top
+        wheel speed on each wheel, opposite signs, drawn from ``seed``); the teacher keeps
+        correcting in closed loop, and the dataset records its own command, so the
+        generators see how to recover a bearing the nominal demonstrations never leave.
+        The disturbance moves the bearing only (:data:`DISTURBED_CHANNELS`); with a common
+        part as well, which also varies the speed along the distance profile, approach on
+        {distance, angle} learned less (sigma 0.04, training seeds 0-2: 96.5 / 94.4 /
+        96.6 % against 96.9 / 96.5 / 96.8 % turning only; measured in development).
         """
         spec = behavior_spec(behavior)
         self._disturbance = (
@@ -325,21 +329,24 @@ class Teacher:
 
 #: Correlation time (s) of a corrective demonstration's disturbance.
 DISTURBANCE_TIME_S: Final[float] = 0.5
+#: Channels a corrective demonstration's disturbance moves: it turns the robot, so the
+#: bearing; a model whose inputs miss one of them cannot tell a corrective run from a
+#: nominal one and learns from the nominal runs only.
+DISTURBED_CHANNELS: Final[tuple[str, ...]] = ("angle",)
 
 
 class _Disturbance:
-    """A smooth random disturbance of the wheel commands (see ``Teacher.demonstrate``)."""
+    """A smooth random turn of the wheel commands (see ``Teacher.demonstrate``)."""
 
     def __init__(self, sigma: float, period: float, seed: int | None) -> None:
         self._sigma = sigma
         self._decay = math.exp(-period / DISTURBANCE_TIME_S)
+        self._innovation = math.sqrt(1.0 - self._decay**2)
         self._rng = np.random.default_rng([0x0DA27, 0 if seed is None else int(seed)])
-        self._state = np.zeros(2)  # common, differential (rad/s)
+        self._state = 0.0  # differential part (unit variance), right wheel +, left −
 
     def applied(self, command: np.ndarray, limit: float) -> np.ndarray:
         """``command`` plus the disturbance's next value, within the motor limit."""
-        a = self._decay
-        self._state = a * self._state + math.sqrt(1.0 - a * a) * self._rng.normal(0.0, 1.0, 2)
-        common, differential = self._sigma * self._state
-        out = command + np.array([common - differential, common + differential])
-        return np.clip(out, -limit, limit)
+        self._state = self._decay * self._state + self._innovation * self._rng.normal()
+        differential = self._sigma * self._state
+        return np.clip(command + np.array([-differential, differential]), -limit, limit)
