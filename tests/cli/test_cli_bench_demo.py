@@ -10,7 +10,7 @@ import pytest
 from cli_testing import Invoke, assert_user_error, png_size
 
 from behavior_hmm import data
-from behavior_hmm.teach import default_starts
+from behavior_hmm.teach import behavior_spec, default_starts
 
 
 def test_bench_sim_writes_real_time_factors(invoke: Invoke, tmp_path: Path) -> None:
@@ -39,7 +39,9 @@ def test_demo_collects_trains_composes_and_evaluates(invoke: Invoke, tmp_path: P
     assert result.exit_code == 0, result.output
     for behavior in ("turn", "approach", "turn-approach"):
         ds = data.read(out / f"{behavior}.parquet")
-        assert len(ds) == len(default_starts(behavior))
+        # each default start once, plus the behavior's corrective copies (approach: 1)
+        copies = 1 + behavior_spec(behavior).corrections
+        assert len(ds) == copies * len(default_starts(behavior))
         assert ds.metadata["behavior"] == behavior
         assert ds.metadata["simulator"] == "kinematic"
         png_size(out / f"{behavior}_demonstrations.png")
