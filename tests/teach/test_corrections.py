@@ -185,3 +185,20 @@ def test_a_complex_behavior_learns_from_the_nominal_demonstrations_only() -> Non
 def test_composite_behaviors_refuse_corrections() -> None:
     with pytest.raises(ConfigError, match="collect corrective demonstrations of turn-approach's"):
         collect("turn-approach", [{"angle": 90.0, "distance": 0.5}], corrections=1)
+
+
+def test_behavior_cloning_follows_the_same_rule(corrected) -> None:  # type: ignore[no-untyped-def]
+    # a fair baseline: it learns from the corrective runs exactly when the SBLM would
+    from behavior_hmm.evaluate._baselines import BASELINES
+
+    nominal = collect("approach", STARTS, sim="kinematic")
+    bc = BASELINES["bc"]
+    blind = bc(inputs=("distance",), epochs=3).fit(corrected).network_
+    plain = bc(inputs=("distance",), epochs=3).fit(nominal).network_
+    assert np.array_equal(blind.n_train_, plain.n_train_)
+    assert all(np.array_equal(a, b) for a, b in zip(blind.coefs_, plain.coefs_, strict=True))
+    seeing = bc(inputs=("distance", "angle"), epochs=3).fit(corrected).network_
+    assert (
+        seeing.n_train_.sum()
+        > bc(inputs=("distance", "angle"), epochs=3).fit(nominal).network_.n_train_.sum()
+    )

@@ -25,6 +25,7 @@ from behavior_hmm.generators._features import (
 )
 from behavior_hmm.generators._motion import AdamGenerators
 from behavior_hmm.models._goals import check_goal, check_input_names, within_tolerance
+from behavior_hmm.models._sblm import without_unseen_corrections
 from behavior_hmm.runtime import (
     DEFAULT_FAULT_HOLD_S,
     StepOutput,
@@ -115,11 +116,17 @@ class BehaviorCloning(Estimator):
         self.random_state = random_state
 
     def fit(self, dataset: Dataset) -> Self:
-        """Train the network on every demonstration of ``dataset``; returns ``self``."""
+        """Train the network on every demonstration of ``dataset``; returns ``self``.
+
+        Corrective demonstrations count as for an SBLM (``learn_corrections``): only when
+        the inputs include the channels their disturbance moves.
+        """
         if self.optimizer not in ("sgd", "adam"):
             raise ConfigError(f"optimizer must be 'sgd' or 'adam', got {self.optimizer!r}")
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
         check_input_names(inputs, getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
+        # corrective demonstrations by the SBLM's rule: kept when the inputs see their cause
+        dataset = without_unseen_corrections(dataset, inputs)
         pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths

@@ -261,14 +261,6 @@ class SBLM(LearnedBehavior):
         self.path_self_loops = path_self_loops
         self.random_state = random_state
 
-    def _learns_corrections(self, dataset: Dataset, inputs: Sequence[str]) -> bool:
-        """Whether the generators learn from the dataset's corrective demonstrations."""
-        if not self.learn_corrections or nominal_episodes(dataset).all():
-            return False
-        # datasets from before the metadata said what the disturbance moves: every channel
-        disturbs = (dataset.metadata.get("corrections") or {}).get("disturbs")
-        return disturbs is None or set(disturbs) <= set(inputs)
-
     # ------------------------------------------------------------------ params
     def check_params(self) -> None:
         """Refuse parameters out of range (ConfigError) before any data is read."""
@@ -337,8 +329,11 @@ class SBLM(LearnedBehavior):
         inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
-        if not self._learns_corrections(dataset, inputs):
-            dataset = dataset.subset(np.flatnonzero(nominal_episodes(dataset)))
+        dataset = (
+            without_unseen_corrections(dataset, inputs)
+            if self.learn_corrections
+            else dataset.subset(np.flatnonzero(nominal_episodes(dataset)))
+        )
         pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
@@ -664,6 +659,22 @@ def nominal_episodes(dataset: Dataset) -> NDArray[np.bool_]:
     if not keep.any():
         raise ConfigError("the dataset holds corrective demonstrations only; no nominal ones")
     return np.asarray(keep, dtype=bool)
+
+
+def without_unseen_corrections(dataset: Dataset, inputs: Sequence[str]) -> Dataset:
+    """``dataset`` without its corrective demonstrations if ``inputs`` cannot see them.
+
+    A corrective run's disturbance moves the channels its metadata lists
+    (``corrections.disturbs``: the bearing); a learner whose inputs miss one of them sees
+    the teacher's corrections without their cause, as noise, and keeps the nominal
+    demonstrations only. Datasets that do not say what their disturbance moves are kept
+    whole.
+    """
+    nominal = nominal_episodes(dataset)
+    disturbs = (dataset.metadata.get("corrections") or {}).get("disturbs")
+    if nominal.all() or disturbs is None or set(disturbs) <= set(inputs):
+        return dataset
+    return dataset.subset(np.flatnonzero(nominal))
 
 
 def nominal_rows(dataset: Dataset) -> NDArray[np.bool_]:
