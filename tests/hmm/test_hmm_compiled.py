@@ -154,6 +154,10 @@ class _Spy:
         self.calls.append("forward")
         _compiled.forward(*args)
 
+    def forward_sparse(self, *args: Any) -> None:
+        self.calls.append("forward_sparse")
+        _compiled.forward_sparse(*args)
+
     def follow(self, *args: Any) -> None:
         self.calls.append("follow")
         _compiled.follow(*args)
@@ -163,7 +167,9 @@ class _Spy:
 def spy(monkeypatch: pytest.MonkeyPatch) -> Iterator[_Spy]:
     """``_compiled.kernels()`` returns the spy's kernels; the setting is "auto"."""
     spy = _Spy()
-    monkeypatch.setattr(_compiled, "kernels", lambda: _compiled.Kernels(spy.forward, spy.follow))
+    monkeypatch.setattr(
+        _compiled, "kernels", lambda: _compiled.Kernels(spy.forward, spy.forward_sparse, spy.follow)
+    )
     monkeypatch.setattr(impl, "_kernel_setting", "auto")
     yield spy
 
@@ -171,17 +177,23 @@ def spy(monkeypatch: pytest.MonkeyPatch) -> Iterator[_Spy]:
 def test_the_switch_changes_the_kernel_that_runs(spy: _Spy, rng: np.random.Generator) -> None:
     """With the compiled kernels available, "auto" and "numba" run them and "numpy" does
     not; the kernels' Python source gives numpy's results to the bit (ties included)."""
-    for n, kind in ((5, "tied"), (20, "sparse"), (20, "dense")):
+    seen = set()
+    for n, kind in ((5, "tied"), (20, "sparse"), (60, "sparse"), (20, "dense")):
         pi, a, b = random_model(rng, n, 2 * n, kind)
         args = (*log_tables(pi, a, b), random_observations(rng, pi, a, b, 30))
         spy.calls.clear()
         expected = _decode("numpy", *args)
         assert spy.calls == []
-        ran = ["forward", "follow"] if np.isfinite(expected[1]) else ["forward"]
+        # a table with at most 20 % possible transitions runs the sparse pass
+        sparse = np.isfinite(args[1]).mean() <= impl._SPARSE_MAX_DENSITY
+        forward = "forward_sparse" if sparse else "forward"
+        ran = [forward, "follow"] if np.isfinite(expected[1]) else [forward]
         for setting in ("auto", "numba"):
             _assert_identical(_decode(setting, *args), expected)
             assert spy.calls == ran
             spy.calls.clear()
+        seen.add(forward)
+    assert seen == {"forward", "forward_sparse"}  # both passes were compared with numpy
     _decode("auto", *args[:3], args[3][:1])  # one step: nothing to run forward
     assert spy.calls == []
 
@@ -217,3 +229,20 @@ def test_importing_the_package_does_not_import_numba() -> None:
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_preparing_goals_loads_the_kernel_before_the_robot_moves(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the first decoding would import numba and load its code (~0.4 s) inside a cycle
+    from behavior_hmm.hmm import BehaviorHMM
+
+    loaded: list[bool] = []
+    monkeypatch.setattr(impl, "_kernel_setting", "auto")
+    monkeypatch.setattr(_compiled, "kernels", lambda: loaded.append(True))
+    hmm = BehaviorHMM(n_states=2, n_observations=3).fit(
+        np.array([0, 0, 1, 1, 0, 1]), np.array([0, 1, 2, 2, 0, 2])
+    )
+    assert loaded == []
+    hmm.prepare_goals([2])
+    assert loaded == [True]

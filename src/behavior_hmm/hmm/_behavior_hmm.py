@@ -42,7 +42,12 @@ from behavior_hmm.hmm._paths import (
     walk,
 )
 from behavior_hmm.hmm._plan import Plan, make_segments
-from behavior_hmm.hmm._viterbi import TreeViterbi, emission_decode, viterbi_log
+from behavior_hmm.hmm._viterbi import (
+    TreeViterbi,
+    emission_decode,
+    prepare_kernel,
+    viterbi_log,
+)
 
 OnImpossible = Literal["raise", "emissions"]
 Category = int | np.integer[Any]  # an observation category index
@@ -436,8 +441,12 @@ class BehaviorHMM(Estimator):
 
         Controllers call this before the robot moves, so that re-planning toward any of
         these goals later is a cached walk instead of a Dijkstra run inside a 16 ms cycle.
+        It also loads the compiled Viterbi kernel when numba is installed: a plan that
+        falls back to a full decoding would otherwise import numba and load its code
+        (~0.4 s) inside a control cycle.
         """
         self._check_fitted()
+        prepare_kernel()
         for goal in goals:
             self._tree(self._check_observation(int(goal), "goal"))
 

@@ -52,6 +52,16 @@ def viterbi_kernel() -> Literal["numba", "numpy"]:
     return "numpy" if _kernels() is None else "numba"
 
 
+def prepare_kernel() -> None:
+    """Load the kernel :func:`viterbi_log` will run now rather than at its first call.
+
+    With numba installed the first decoding imports numba and compiles or loads the
+    kernels (0.4-1 s); a control loop calls this while setting up (via
+    ``BehaviorHMM.prepare_goals``) so that no cycle pays it.
+    """
+    _kernels()
+
+
 def _kernels() -> _compiled.Kernels | None:
     """The compiled kernels when the setting and the installation allow them."""
     return None if _kernel_setting == "numpy" else _compiled.kernels()
@@ -144,8 +154,17 @@ def _compiled_viterbi(
     """The rest of :func:`viterbi_log` (``lattice[0]`` filled and possible), compiled."""
     t_len, n = lattice.shape
     psi = np.empty((t_len, n), dtype=np.intp)
-    log_a = np.ascontiguousarray(log_A, dtype=np.float64)
-    kernels.forward(log_a, np.ascontiguousarray(emit), lattice, psi)
+    emit = np.ascontiguousarray(emit)
+    finite = np.isfinite(log_A)
+    if np.count_nonzero(finite) <= _SPARSE_MAX_DENSITY * n * n:
+        # transitions listed by target, sources ascending (row-major order of log_A.T)
+        target, source = np.nonzero(finite.T)
+        starts = np.searchsorted(target, np.arange(n + 1)).astype(np.intp)
+        weights = np.ascontiguousarray(log_A[source, target], dtype=np.float64)
+        kernels.forward_sparse(starts, source.astype(np.intp), weights, emit, lattice, psi)
+    else:
+        log_a = np.ascontiguousarray(log_A, dtype=np.float64)
+        kernels.forward(log_a, emit, lattice, psi)
     state = int(lattice[-1].argmax())
     log_prob = float(lattice[-1, state])
     if not np.isfinite(log_prob):
