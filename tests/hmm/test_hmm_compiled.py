@@ -231,18 +231,24 @@ def test_importing_the_package_does_not_import_numba() -> None:
     assert result.returncode == 0, result.stderr
 
 
-def test_preparing_goals_loads_the_kernel_before_the_robot_moves(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    # the first decoding would import numba and load its code (~0.4 s) inside a cycle
+def test_a_plan_never_loads_the_compiled_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a plan is decoded inside a control cycle: importing numba there would stall ~0.7 s
     from behavior_hmm.hmm import BehaviorHMM
 
     loaded: list[bool] = []
     monkeypatch.setattr(impl, "_kernel_setting", "auto")
     monkeypatch.setattr(_compiled, "kernels", lambda: loaded.append(True))
-    hmm = BehaviorHMM(n_states=2, n_observations=3).fit(
+    hmm = BehaviorHMM(n_states=2, n_observations=3, on_impossible="emissions").fit(
         np.array([0, 0, 1, 1, 0, 1]), np.array([0, 1, 2, 2, 0, 2])
     )
+
+    class Impossible:  # the goal tree finds no state sequence: the plan decodes in full
+        def decode(self, path: list[int]) -> tuple[list[int], float]:
+            return [], float("-inf")
+
+    monkeypatch.setattr(hmm, "_decoder", lambda goal: Impossible())
+    plan = hmm.plan(0, 2)
+    assert len(plan.states) == len(plan.observations)
     assert loaded == []
-    hmm.prepare_goals([2])
+    hmm.viterbi(np.array([0, 1, 2]))  # the public decoding does use it
     assert loaded == [True]

@@ -42,12 +42,7 @@ from behavior_hmm.hmm._paths import (
     walk,
 )
 from behavior_hmm.hmm._plan import Plan, make_segments
-from behavior_hmm.hmm._viterbi import (
-    TreeViterbi,
-    emission_decode,
-    prepare_kernel,
-    viterbi_log,
-)
+from behavior_hmm.hmm._viterbi import TreeViterbi, emission_decode, viterbi_log
 
 OnImpossible = Literal["raise", "emissions"]
 Category = int | np.integer[Any]  # an observation category index
@@ -363,9 +358,11 @@ class BehaviorHMM(Estimator):
         return states, log_prob
 
     def _decode(
-        self, obs: NDArray[np.int64], rule: str
+        self, obs: NDArray[np.int64], rule: str, *, compiled: bool = True
     ) -> tuple[NDArray[np.int64], float, Literal["viterbi", "emissions"]]:
-        states, log_prob, dead = viterbi_log(self.log_pi_, self.log_A_, self.log_B_, obs)
+        states, log_prob, dead = viterbi_log(
+            self.log_pi_, self.log_A_, self.log_B_, obs, compiled=compiled
+        )
         if dead < 0:
             return states, log_prob, "viterbi"
         if rule == "emissions":
@@ -417,8 +414,10 @@ class BehaviorHMM(Estimator):
         state_list, log_prob = self._decoder(g).decode(path)
         decoding: Literal["viterbi", "emissions"] = "viterbi"
         if not state_list:  # impossible: the forward pass explains where, or falls back
+            # a plan's path is short and may be decoded inside a control cycle: the numpy
+            # pass, so that no cycle is the one that first imports numba (~0.7 s)
             states_arr, log_prob, decoding = self._decode(
-                np.asarray(path, dtype=np.int64), self.on_impossible
+                np.asarray(path, dtype=np.int64), self.on_impossible, compiled=False
             )
             state_list = states_arr.tolist()
         observations = tuple(path)
@@ -441,12 +440,8 @@ class BehaviorHMM(Estimator):
 
         Controllers call this before the robot moves, so that re-planning toward any of
         these goals later is a cached walk instead of a Dijkstra run inside a 16 ms cycle.
-        It also loads the compiled Viterbi kernel when numba is installed: a plan that
-        falls back to a full decoding would otherwise import numba and load its code
-        (~0.4 s) inside a control cycle.
         """
         self._check_fitted()
-        prepare_kernel()
         for goal in goals:
             self._tree(self._check_observation(int(goal), "goal"))
 

@@ -52,16 +52,6 @@ def viterbi_kernel() -> Literal["numba", "numpy"]:
     return "numpy" if _kernels() is None else "numba"
 
 
-def prepare_kernel() -> None:
-    """Load the kernel :func:`viterbi_log` will run now rather than at its first call.
-
-    With numba installed the first decoding imports numba and compiles or loads the
-    kernels (0.4-1 s); a control loop calls this while setting up (via
-    ``BehaviorHMM.prepare_goals``) so that no cycle pays it.
-    """
-    _kernels()
-
-
 def _kernels() -> _compiled.Kernels | None:
     """The compiled kernels when the setting and the installation allow them."""
     return None if _kernel_setting == "numpy" else _compiled.kernels()
@@ -72,6 +62,8 @@ def viterbi_log(
     log_A: NDArray[np.float64],
     log_B: NDArray[np.float64],
     observations: NDArray[np.int64],
+    *,
+    compiled: bool = True,
 ) -> tuple[NDArray[np.int64], float, int]:
     """Most likely state sequence for an observation sequence.
 
@@ -83,6 +75,10 @@ def viterbi_log(
         so ``-inf`` never turns into NaN.
     observations
         Observation indices, shape (T,), T ≥ 1.
+    compiled
+        Allow the compiled kernel (when installed and not switched off, see
+        :func:`set_kernel`). ``False`` runs the numpy pass: a short sequence decoded
+        inside a control cycle must not be the call that first imports numba (~0.7 s).
 
     Returns
     -------
@@ -126,7 +122,7 @@ def viterbi_log(
     np.add(log_pi, emit[0], out=lattice[0])
     if not np.isfinite(lattice[0].max()):
         return np.zeros(t_len, dtype=np.int64), float("-inf"), 0
-    kernels = _kernels() if t_len > 1 else None
+    kernels = _kernels() if compiled and t_len > 1 else None
     if kernels is not None:
         return _compiled_viterbi(kernels, log_A, emit, lattice)
     log_at = _aligned_empty((n, n))
