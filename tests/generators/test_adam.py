@@ -6,6 +6,7 @@ import io
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 from behavior_hmm.errors import ConfigError, NotFittedError
 from behavior_hmm.generators import MotionGenerators
@@ -184,3 +185,19 @@ def test_adam_generators_params_validation_and_arrays() -> None:
         loaded = AdamGenerators.from_arrays(dict(npz), **fitted.get_params())
     assert isinstance(loaded, AdamGenerators)
     np.testing.assert_array_equal(loaded.predict(x), fitted.predict(x))
+
+
+def test_the_blas_thread_count_does_not_change_the_weights() -> None:
+    # bc-strong's size: 2 x 64 hidden, batches of 128. A multi-threaded BLAS divides its
+    # gradient matmul (65 x 128 @ 128 x 64) between threads, which changes the last
+    # bits; a worker process or Ray task (one thread) must train what this process does.
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (600, 24))
+    y = np.tanh(x[:, :2] + 0.5 * x[:, 2:4])
+    params = dict(hidden=(64, 64), epochs=3, batch_size=128, random_state=0)
+    weights = []
+    for threads in (1, 2):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            net = AdamGenerators(**params).fit(x, y)
+        weights.append(b"".join(w.tobytes() for w in net.coefs_ + net.intercepts_))
+    assert weights[0] == weights[1]

@@ -217,26 +217,34 @@ def train_stack(
     """
     if optimizer not in ("sgd", "adam"):
         raise ValueError(f"optimizer must be 'sgd' or 'adam', got {optimizer!r}")
+    from threadpoolctl import threadpool_limits
+
     # Work on the slots sorted by training-set size, largest first (see the step loop).
     order = np.argsort(-n_train, kind="stable")
-    result = _train_sorted(
-        theta0[order],
-        sizes,
-        x_train[order],
-        y_train[order],
-        n_train[order],
-        x_test[order],
-        y_test[order],
-        n_test[order],
-        learning_rate=np.asarray(learning_rate, dtype=np.float64)[order],
-        momentum=np.asarray(momentum, dtype=np.float64)[order],
-        epochs=epochs,
-        batch_size=batch_size,
-        rngs=[rngs[p] for p in order.tolist()],
-        early_stopping=early_stopping,
-        patience=patience,
-        adam=(float(beta1), float(beta2), float(epsilon)) if optimizer == "adam" else None,
-    )
+    # One BLAS thread while training: how OpenBLAS divides a large matmul between its
+    # threads changes the last bits of the result (measured: the 2 x 64 bc-strong
+    # network's gradient, 65 x 128 @ 128 x 64, differs between 1 and 2 threads). The
+    # same seed must give the same weights in this process, in a worker process and in
+    # a Ray task, whatever their thread counts. Entering the limit costs about 0.4 ms.
+    with threadpool_limits(limits=1, user_api="blas"):
+        result = _train_sorted(
+            theta0[order],
+            sizes,
+            x_train[order],
+            y_train[order],
+            n_train[order],
+            x_test[order],
+            y_test[order],
+            n_test[order],
+            learning_rate=np.asarray(learning_rate, dtype=np.float64)[order],
+            momentum=np.asarray(momentum, dtype=np.float64)[order],
+            epochs=epochs,
+            batch_size=batch_size,
+            rngs=[rngs[p] for p in order.tolist()],
+            early_stopping=early_stopping,
+            patience=patience,
+            adam=(float(beta1), float(beta2), float(epsilon)) if optimizer == "adam" else None,
+        )
     back = np.argsort(order)
     return TrainResult(
         result.theta[back],
