@@ -252,6 +252,8 @@ class BehaviorHMM(Estimator):
 
     # ---------------------------------------------------------------- planning
     def _check_observation(self, value: Any, name: str) -> int:
+        if type(value) is int and 0 <= value < self.n_observations_:
+            return value  # the case of every control cycle, without the ABC checks below
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
             raise ConfigError(f"{name} must be an observation category index, got {value!r}")
         v = int(value)
