@@ -151,13 +151,10 @@ def _compiled_viterbi(
     t_len, n = lattice.shape
     psi = np.empty((t_len, n), dtype=np.intp)
     emit = np.ascontiguousarray(emit)
-    finite = np.isfinite(log_A)
-    if np.count_nonzero(finite) <= _SPARSE_MAX_DENSITY * n * n:
-        # transitions listed by target, sources ascending (row-major order of log_A.T)
-        target, source = np.nonzero(finite.T)
-        starts = np.searchsorted(target, np.arange(n + 1)).astype(np.intp)
-        weights = np.ascontiguousarray(log_A[source, target], dtype=np.float64)
-        kernels.forward_sparse(starts, source.astype(np.intp), weights, emit, lattice, psi)
+    sparse = _sparse_transitions(log_A.T)
+    if sparse is not None:
+        source, weights, starts = sparse
+        kernels.forward_sparse(starts, source, weights, emit, lattice, psi)
     else:
         log_a = np.ascontiguousarray(log_A, dtype=np.float64)
         kernels.forward(log_a, emit, lattice, psi)
@@ -208,9 +205,9 @@ def _forward(
     log emissions of observation t, ``lattice[0]`` the start scores.
     """
     n = log_at.shape[0]
-    finite = np.isfinite(log_at)
-    if np.count_nonzero(finite) <= _SPARSE_MAX_DENSITY * n * n:
-        _forward_sparse(log_at, finite, emit, lattice)
+    sparse = _sparse_transitions(log_at)
+    if sparse is not None:
+        _forward_sparse(*sparse, emit, lattice)
         return
     rows = n if n * n <= _ONE_BLOCK_MAX else min(n, max(8, _BLOCK_ELEMENTS // n))
     tile = _aligned_empty((rows, n))  # every row = the previous scores
@@ -246,24 +243,39 @@ def _forward(
         prev = cur
 
 
-def _forward_sparse(
+def _sparse_transitions(
     log_at: NDArray[np.float64],
-    finite: NDArray[np.bool_],
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.intp]] | None:
+    """The possible transitions of a sparse table, or ``None`` for a dense one.
+
+    ``log_at`` is the transposed log transition table (row j = log a_·j). A table is
+    sparse when at most ``_SPARSE_MAX_DENSITY`` of it is finite. Returns ``source``,
+    ``weights`` and ``starts`` (N + 1,): the transitions into state j are entries
+    ``starts[j] .. starts[j + 1] - 1``, their predecessors ``source`` in increasing
+    order with ``log a_ij`` in ``weights``. A target no state can reach gets one entry
+    (state 0, ``-inf``): every segment is non-empty, its score stays ``-inf`` and its
+    best predecessor 0, in the numpy and the compiled pass alike.
+    """
+    n = log_at.shape[0]
+    listed = np.isfinite(log_at)
+    if np.count_nonzero(listed) > _SPARSE_MAX_DENSITY * n * n:
+        return None
+    listed[~listed.any(axis=1), 0] = True  # log_at is -inf there
+    target, source = np.nonzero(listed)  # row-major: grouped by target, sources ascending
+    weights = np.ascontiguousarray(log_at[target, source], dtype=np.float64)
+    starts = np.searchsorted(target, np.arange(n + 1)).astype(np.intp)
+    return source.astype(np.intp), weights, starts
+
+
+def _forward_sparse(
+    source: NDArray[np.intp],
+    weights: NDArray[np.float64],
+    starts: NDArray[np.intp],
     emit: NDArray[np.float64],
     lattice: NDArray[np.float64],
 ) -> None:
-    """:func:`_forward` over the possible transitions only (``finite``: log_at > -inf).
-
-    The possible transitions are listed target by target, each target's predecessors in
-    increasing order; a target no state can reach gets one ``-inf`` entry so that every
-    segment of the segmented max is non-empty.
-    """
-    n = log_at.shape[0]
-    listed = finite.copy()
-    listed[~finite.any(axis=1), 0] = True  # log_at is -inf there: the score stays -inf
-    target, source = np.nonzero(listed)  # row-major: grouped by target, sources ascending
-    weights = log_at[target, source]
-    starts = np.searchsorted(target, np.arange(n))
+    """:func:`_forward` over the possible transitions only (:func:`_sparse_transitions`)."""
+    starts = starts[:-1]  # the segments' first entries, for the segmented max
     scores = np.empty(source.shape[0])
     add, reduceat = np.add, np.maximum.reduceat
     prev = lattice[0]
