@@ -62,25 +62,56 @@ def with_ones(x: FloatArray) -> FloatArray:
     return out
 
 
-def forward(weights: list[FloatArray], x1: FloatArray) -> list[FloatArray]:
+def activation_buffers(weights: list[FloatArray], n_slots: int, batch: int) -> list[FloatArray]:
+    """Arrays for :func:`forward`'s hidden activations (ones column set) and output."""
+    last = len(weights) - 1
+    return [
+        np.ones((n_slots, batch, w.shape[2] + 1))
+        if layer < last
+        else np.empty((n_slots, batch, w.shape[2]))
+        for layer, w in enumerate(weights)
+    ]
+
+
+def forward(
+    weights: list[FloatArray], x1: FloatArray, buffers: list[FloatArray] | None = None
+) -> list[FloatArray]:
     """Activations ``[x1, h_1, ..., out]`` for bias-augmented inputs ``x1 (P, B, n_in + 1)``.
 
     Hidden activations carry the trailing ones column too; the output does not.
+    ``buffers`` (from :func:`activation_buffers` for the same shapes) receive the
+    activations instead of new arrays: the trainer reuses them every step.
     """
-    activations = [x1]
+    if buffers is None:
+        buffers = activation_buffers(weights, x1.shape[0], x1.shape[1])
     a = x1
     last = len(weights) - 1
-    for layer, w in enumerate(weights):
-        if layer < last:
-            a_next = np.ones((a.shape[0], a.shape[1], w.shape[2] + 1))
-            z = a_next[:, :, :-1]
-        else:
-            a_next = z = np.empty((a.shape[0], a.shape[1], w.shape[2]))
+    for layer, (w, a_next) in enumerate(zip(weights, buffers, strict=True)):
+        z = a_next[:, :, :-1] if layer < last else a_next
         np.matmul(a, w, out=z)
         np.tanh(z, out=z)
-        activations.append(a_next)
         a = a_next
-    return activations
+    return [x1, *buffers]
+
+
+@dataclass
+class _BackwardBuffers:
+    """Arrays :func:`backward` writes into, reused by the trainer every step."""
+
+    error: FloatArray  # (P, B, n_out)
+    deltas: list[FloatArray]  # error signal of each layer's output, (P, B, n_{l+1})
+    slopes: list[FloatArray]  # 1 - h^2 of each hidden layer, (P, B, n_l)
+    transposed: list[FloatArray]  # W_l^T without its bias row, contiguous, (P, n_{l+1}, n_l)
+
+    @classmethod
+    def for_weights(cls, weights: list[FloatArray], n_slots: int, batch: int) -> _BackwardBuffers:
+        sizes = [w.shape[2] for w in weights]
+        return cls(
+            error=np.empty((n_slots, batch, sizes[-1])),
+            deltas=[np.empty((n_slots, batch, n)) for n in sizes],
+            slopes=[np.empty((n_slots, batch, n)) for n in sizes[:-1]],
+            transposed=[np.empty((n_slots, w.shape[2], w.shape[1] - 1)) for w in weights],
+        )
 
 
 def backward(
@@ -89,23 +120,28 @@ def backward(
     y: FloatArray,
     sample_weight: FloatArray,
     grad_weights: list[FloatArray],
+    buffers: _BackwardBuffers | None = None,
 ) -> FloatArray:
     """Write the gradient of ``E = 1/2 sum_b sample_weight[b] * |out_b - y_b|^2``.
 
     ``y (P, B, n_out)`` are targets and ``sample_weight (P, B, 1)`` weighs each
     sample (0 for padding; the trainer passes the learning rate there, so the
     "gradient" comes out already scaled). Results go into the ``grad_weights``
-    views, bias rows included; the gradient is summed over the batch.
+    views, bias rows included; the gradient is summed over the batch. ``buffers``
+    hold the intermediate arrays (new ones when ``None``); the arithmetic is the same.
 
     Returns
     -------
     ndarray, shape (P, B, n_out)
-        The unweighted output error ``out - y``.
+        The unweighted output error ``out - y`` (in ``buffers.error`` when given).
     """
+    if buffers is None:
+        buffers = _BackwardBuffers.for_weights(weights, y.shape[0], y.shape[1])
     out = activations[-1]
-    error = out - y
+    error = np.subtract(out, y, out=buffers.error)
     # Output error signal (thesis delta rule): (o - t) * f'(net), f' = 1 - tanh^2.
-    delta = 1.0 - out * out
+    delta = np.multiply(out, out, out=buffers.deltas[-1])
+    np.subtract(1.0, delta, out=delta)
     delta *= error
     delta *= sample_weight
     for layer in range(len(weights) - 1, -1, -1):
@@ -114,9 +150,12 @@ def backward(
         if layer > 0:
             hidden = a_in[:, :, :-1]
             # A contiguous copy of W^T makes the batched matmul take the fast path.
-            w_t = np.ascontiguousarray(weights[layer][:, :-1, :].transpose(0, 2, 1))
-            delta = np.matmul(delta, w_t)
-            delta *= 1.0 - hidden * hidden
+            w_t = buffers.transposed[layer]
+            np.copyto(w_t, weights[layer][:, :-1, :].transpose(0, 2, 1))
+            delta = np.matmul(delta, w_t, out=buffers.deltas[layer - 1])
+            slope = np.multiply(hidden, hidden, out=buffers.slopes[layer - 1])
+            np.subtract(1.0, slope, out=slope)
+            delta *= slope
     return error
 
 
@@ -275,6 +314,9 @@ class _PrefixViews:
         self.second = second[:k]
         self.weights = layer_views(self.theta, sizes)
         self.grad_weights = layer_views(self.grad, sizes)
+        batch = squared.shape[1]
+        self.activations = activation_buffers(self.weights, k, batch)
+        self.backward = _BackwardBuffers.for_weights(self.weights, k, batch)
 
 
 def _train_sorted(
@@ -354,7 +396,10 @@ def _train_sorted(
         # slots up to its last active one: once the small slots have finished their
         # epoch, the big ones run on alone and cheaply.
         prefix = (n_slots - np.argmax(active[:, ::-1], axis=1)).tolist()
-        all_active = [bool(active[step, :k].all()) for step, k in enumerate(prefix)]
+        # whether every slot of the step's prefix is active
+        all_active = np.logical_and.accumulate(active, axis=1)[
+            np.arange(n_steps), np.asarray(prefix) - 1
+        ].tolist()
         # Inactive slots keep their momentum (factor 1) and their weights (step factor 0).
         momentum_steps = np.where(active, momentum_row[None, :], 1.0)[:, :, None]
         apply_steps = active.astype(np.float64)[:, :, None]
@@ -365,9 +410,14 @@ def _train_sorted(
             if k not in views:
                 views[k] = _PrefixViews(theta, velocity, grad, squared, second, sizes, k)
             v = views[k]
-            activations = forward(v.weights, xs[step, :k])
+            activations = forward(v.weights, xs[step, :k], v.activations)
             error = backward(
-                v.weights, activations, ys[step, :k], step_weights[step, :k], v.grad_weights
+                v.weights,
+                activations,
+                ys[step, :k],
+                step_weights[step, :k],
+                v.grad_weights,
+                v.backward,
             )
             error *= error
             error *= valid_steps[step, :k]
