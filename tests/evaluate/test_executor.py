@@ -14,6 +14,7 @@ from behavior_hmm.evaluate._executor import (
     check_workers,
     default_workers,
     make_executor,
+    map_largest_first,
 )
 from behavior_hmm.evaluate._experiments import SIMPLE_CONFIGS, over_seeds, run_simple_experiment
 from behavior_hmm.viz._reports import write_results_files
@@ -35,6 +36,23 @@ def test_executors_keep_task_order_and_report_progress() -> None:
         out = executor.map(square, tasks, lambda d, t: seen.append((d, t)))
         assert out == [x * x for x in tasks]
         assert [d for d, _ in seen] == list(range(1, 8)) and {t for _, t in seen} == {7}
+
+
+def test_largest_tasks_go_first_and_results_keep_task_order() -> None:
+    ran: list[int] = []
+
+    def record(x: int) -> int:
+        ran.append(x)
+        return x * x
+
+    tasks = [5, 1, 9, 3, 7]
+    sizes = [2.0, 1.0, 5.0, 1.0, 3.0]  # the two of size 1 keep their order
+    out = map_largest_first(SerialExecutor(), record, tasks, sizes)
+    assert ran == [9, 7, 5, 1, 3]
+    assert out == [x * x for x in tasks]
+    # in processes too: the results do not depend on the order the tasks ran in
+    assert map_largest_first(ProcessExecutor(2), square, tasks, sizes) == out
+    assert map_largest_first(SerialExecutor(), square, [], []) == []
 
 
 def test_bad_executor_options_are_refused() -> None:

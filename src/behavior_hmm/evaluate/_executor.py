@@ -144,6 +144,28 @@ class RayExecutor:
         return list(ray.get(refs))
 
 
+def map_largest_first(
+    executor: Executor,
+    fn: Callable[[T], R],
+    tasks: Sequence[T],
+    sizes: Sequence[float],
+    progress: Progress | None = None,
+) -> list[R]:
+    """``executor.map(fn, tasks, progress)`` with the tasks handed out largest first.
+
+    Workers take tasks in the order given; a large task handed out last runs on alone
+    while the other workers idle. ``sizes`` are estimates of the tasks' costs (any
+    comparable numbers; equal sizes keep their order). Results come back in task order
+    and do not depend on the sizes: every task's seed comes from its identity.
+    """
+    order = sorted(range(len(tasks)), key=lambda i: -sizes[i])
+    done = executor.map(fn, [tasks[i] for i in order], progress)
+    out: list[R] = [done[0]] * len(tasks) if done else []
+    for i, result in zip(order, done, strict=True):
+        out[i] = result
+    return out
+
+
 #: Environment variable that overrides ``--workers``' default (e.g. 1 in a test session or
 #: on a shared login node).
 WORKERS_VARIABLE = "BEHAVIOR_HMM_WORKERS"

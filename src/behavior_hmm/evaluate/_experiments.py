@@ -10,7 +10,7 @@ import numpy as np
 
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.evaluate._baselines import BASELINES, baseline_columns, fit_baselines
-from behavior_hmm.evaluate._executor import Executor, SerialExecutor
+from behavior_hmm.evaluate._executor import Executor, SerialExecutor, map_largest_first
 from behavior_hmm.evaluate._protocol import evaluate_model
 
 Progress = Callable[[int, int], None]
@@ -89,7 +89,10 @@ def run_simple_experiment(
         if progress is not None:
             progress(len(data_tasks) + done, total)
 
-    outcomes = run.map(_simple_config_task, tasks, trained)
+    # the rows with the most training rows and inputs first: the approach {d, a, v} row
+    # alone takes about a third of the work (docs/performance.md, executor)
+    sizes = [float(task[3].n_samples * len(task[1])) for task in tasks]
+    outcomes = map_largest_first(run, _simple_config_task, tasks, sizes, trained)
     per_seed: list[dict[str, Any]] = []
     for k, s in enumerate(seed_list):
         mine = outcomes[k * len(configs) : (k + 1) * len(configs)]
