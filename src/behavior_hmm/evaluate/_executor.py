@@ -160,10 +160,8 @@ def map_largest_first(
     """
     order = sorted(range(len(tasks)), key=lambda i: -sizes[i])
     done = executor.map(fn, [tasks[i] for i in order], progress)
-    out: list[R] = [done[0]] * len(tasks) if done else []
-    for i, result in zip(order, done, strict=True):
-        out[i] = result
-    return out
+    by_task = dict(zip(order, done, strict=True))
+    return [by_task[i] for i in range(len(tasks))]
 
 
 #: Environment variable that overrides ``--workers``' default (e.g. 1 in a test session or
