@@ -22,6 +22,7 @@ from typer.testing import CliRunner
 from behavior_hmm.cli import app
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.runtime import Robot, make_robot_env, run_policy
+from behavior_hmm.teach import Teacher
 
 HERE = Path(__file__).resolve()
 PERIOD = 0.02  # s: not our 16 ms
@@ -140,10 +141,12 @@ def test_an_env_that_breaks_the_contract_is_refused() -> None:
     env.observation_space = spaces.Box(-1.0, 1.0, shape=(4,))
     with pytest.raises(ConfigError, match=r"spaces\.Dict"):
         Robot(env)
+    # contract version 2 requires no channel; our own teacher reads angle and distance
     env = make()
     env.observation_space = spaces.Dict({"angle": spaces.Box(-180, 180, shape=(1,))})
-    with pytest.raises(ConfigError, match="distance"):
-        Robot(env)
+    assert Robot(env).channels == ("angle", "angular_velocity")
+    with pytest.raises(ConfigError, match="has no distance channel; our teacher reads"):
+        Teacher(env)
 
 
 @pytest.mark.slow

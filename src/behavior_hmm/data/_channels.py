@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal
 
@@ -198,19 +198,61 @@ SENSOR_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind
 #: Motor command channels (wheel speeds, rad/s), in order.
 COMMAND_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind == "command")
 
-#: Physical unit of every channel (and of the time column).
-UNITS: Final[dict[str, str]] = {"t": "s", **{s.name: s.unit for s in _SPECS}}
 
-#: Default normalization range (physical units) of each sensor channel; mapped onto [-1, 1].
+class _Derived(Mapping[str, Any]):
+    """A read-only table derived from :data:`CHANNELS` on every access.
+
+    Registering a channel (:func:`register_channel`) updates every such table at once:
+    a goal on a registered channel finds its tolerance, a plot its unit.
+    """
+
+    def __init__(self, derive: Any, doc: str, fixed: Mapping[str, Any] | None = None) -> None:
+        self._derive = derive
+        self._fixed = dict(fixed or {})
+        self.__doc__ = doc
+
+    def _table(self) -> dict[str, Any]:
+        out = dict(self._fixed)
+        for spec in CHANNELS.values():
+            value = self._derive(spec)
+            if value is not None:
+                out[spec.name] = value
+        return out
+
+    def __getitem__(self, name: str) -> Any:
+        spec = CHANNELS.get(name)
+        value = None if spec is None else self._derive(spec)
+        if value is None:
+            if name in self._fixed:
+                return self._fixed[name]
+            raise KeyError(name)
+        return value
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._table())
+
+    def __len__(self) -> int:
+        return len(self._table())
+
+    def __repr__(self) -> str:
+        return repr(self._table())
+
+
+#: Physical unit of every channel (and of the time column); live (see :class:`_Derived`).
+UNITS: Final[Mapping[str, str]] = _Derived(
+    lambda s: s.unit, "Physical unit of every channel.", fixed={"t": "s"}
+)
+
+#: Normalization range (physical units) of each sensor channel, mapped onto [-1, 1]; live.
 #: Sensor noise ``--noise SIGMA`` has standard deviation ``SIGMA * (hi - lo)`` per channel.
-SENSOR_RANGES: Final[dict[str, tuple[float, float]]] = {
-    s.name: s.range for s in _SPECS if s.kind == "sensor"
-}
+SENSOR_RANGES: Final[Mapping[str, tuple[float, float]]] = _Derived(
+    lambda s: s.range if s.kind == "sensor" else None, "Normalization range of each sensor."
+)
 
-#: Goal tolerance (physical units) of every channel that can be a goal (DESIGN §5).
-TOLERANCES: Final[dict[str, float]] = {
-    s.name: s.tolerance for s in _SPECS if s.tolerance is not None
-}
+#: Goal tolerance (physical units) of every channel that can be a goal (DESIGN §5); live.
+TOLERANCES: Final[Mapping[str, float]] = _Derived(
+    lambda s: s.tolerance, "Goal tolerance of every channel that can be a goal."
+)
 
 #: Physical goal tolerances used by the teacher and the generation stop rule (DESIGN §5).
 ANGLE_TOLERANCE_DEG: Final[float] = TOLERANCES["angle"]
@@ -272,11 +314,18 @@ def channel(name: str, extra: Iterable[ChannelSpec] = ()) -> ChannelSpec:
 
 
 def within_tolerance(
-    values: Mapping[str, float], goal: Mapping[str, float], scale: float = 1.0
+    values: Mapping[str, float],
+    goal: Mapping[str, float],
+    scale: float = 1.0,
+    specs: Mapping[str, ChannelSpec] | None = None,
 ) -> bool:
-    """True when every goal channel of ``values`` lies within ``scale`` times its tolerance."""
+    """True when every goal channel of ``values`` lies within ``scale`` times its tolerance.
+
+    ``specs`` declares channels the registry does not know (a model's or a robot's own);
+    the others are looked up in :data:`CHANNELS`.
+    """
     for name, target in goal.items():
-        spec = CHANNELS[name]
+        spec = specs[name] if specs is not None and name in specs else channel(name)
         tol = spec.tolerance
         if tol is None:
             raise ConfigError(f"channel '{name}' has no goal tolerance; it cannot be a goal")

@@ -13,7 +13,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm._estimator import Estimator
-from behavior_hmm.data._channels import CONTROL_PERIOD, SENSOR_CHANNELS
+from behavior_hmm.data._channels import (
+    CHANNELS,
+    CONTROL_PERIOD,
+    SENSOR_CHANNELS,
+    ChannelSpec,
+    channel,
+    channel_from_metadata,
+)
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
@@ -24,10 +31,14 @@ class LearnedBehavior(Estimator):
     """Base of the learned behaviors: scikit-learn parameters and goal observations.
 
     Subclasses set, when fitted, ``inputs_``, ``pipeline_``, ``observations_`` (a
-    CobART), ``hmm_``, ``rest_values_`` and ``default_goal_``.
+    CobART), ``hmm_``, ``rest_values_`` and ``default_goal_``; ``channels_`` (the
+    declaration of every input channel: unit, range, goal tolerance, wrap) comes from
+    the training data and travels in the model file, so a model trained on a robot's
+    own channels knows their tolerances wherever it is loaded.
     """
 
     inputs_: tuple[str, ...]
+    channels_: dict[str, ChannelSpec]
     pipeline_: Any
     observations_: Any
     hmm_: Any
@@ -122,10 +133,11 @@ class LearnedBehavior(Estimator):
         self.rest_values_ = _modelfile.check_channel_values(
             state["rest_values"], "rest_values", inputs
         )
+        self.channels_ = _restore_channels(state.get("channels"), inputs)
         goal = _modelfile.check_channel_values(
             state["default_goal"], "default_goal", inputs, all_channels=False
         )
-        self.default_goal_ = check_goal(goal, inputs)
+        self.default_goal_ = check_goal(goal, inputs, self.channels_)
         self.max_steps_ = _modelfile.check_int(
             state["max_steps"], "max_steps", 1, _modelfile.MAX_STEPS
         )
@@ -135,9 +147,22 @@ class LearnedBehavior(Estimator):
         )
         self.provenance_ = _check_provenance(state.get("provenance") or {})
 
+    def channel_spec(self, name: str) -> ChannelSpec:
+        """The declaration of the input channel ``name`` (the model's own, else the registry's)."""
+        own = getattr(self, "channels_", None) or {}
+        return own[name] if name in own else channel(name)
+
+    def _channels_state(self) -> list[dict[str, Any]]:
+        """The input channels' declarations as the model file stores them."""
+        return [self.channel_spec(c).to_metadata() for c in self.inputs_]
+
     def _record_provenance(self, dataset: Any) -> None:
-        """Where the training data came from: robot, control period, package, data hash."""
+        """Where the training data came from: robot, control period, package, data hash;
+        and the declaration of each input channel (``channels_``, from the dataset)."""
         from behavior_hmm import __version__
+
+        declared = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
+        self.channels_ = {c: declared.get(c) or channel(c) for c in self.inputs_}
 
         meta = dataset.metadata
         period = meta.get("control_period")
@@ -247,6 +272,28 @@ def dataset_hash(dataset: Any) -> str:
     digest.update(np.ascontiguousarray(dataset.lengths, dtype=np.int64).tobytes())
     digest.update(json.dumps(dataset.metadata, sort_keys=True, default=str).encode())
     return digest.hexdigest()
+
+
+def _restore_channels(value: Any, inputs: tuple[str, ...]) -> dict[str, ChannelSpec]:
+    """The input channels' declarations of a model file (older files have none: the
+    registry's). A declaration equal to a known channel's is that channel (with its
+    import units and bounds)."""
+    if value is None:
+        return {c: CHANNELS[c] for c in inputs if c in CHANNELS}
+    if not isinstance(value, list) or len(value) != len(inputs):
+        raise ModelFileError("channels must list one declaration per input")
+    out: dict[str, ChannelSpec] = {}
+    for name, entry in zip(inputs, value, strict=True):
+        try:
+            spec = channel_from_metadata(entry)
+        except ConfigError as err:
+            raise ModelFileError(f"channels: {err}") from None
+        if spec.name != name or spec.kind != "sensor":
+            raise ModelFileError(f"channels: declaration {spec.name!r} does not match {name!r}")
+        known = CHANNELS.get(name)
+        same = known is not None and known.to_metadata() == spec.to_metadata()
+        out[name] = known if same and known is not None else spec
+    return out
 
 
 def _check_provenance(value: Any) -> dict[str, Any]:

@@ -278,7 +278,7 @@ class CBLM(LearnedBehavior):
         self._check_fitted()
         if goal is None:
             return dict(self.default_goal_)
-        return {**self.default_goal_, **check_goal(goal, self.inputs_)}
+        return {**self.default_goal_, **check_goal(goal, self.inputs_, self.channels_)}
 
     def category_values(self, category: int) -> dict[str, float]:
         """Physical value of each input at the end of an observation category's prototype."""
@@ -355,6 +355,7 @@ class CBLM(LearnedBehavior):
             "default_goal": self.default_goal_,
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
+            "channels": self._channels_state(),
             "train_data": self.train_data_,
             "provenance": dict(self.provenance_),
         }

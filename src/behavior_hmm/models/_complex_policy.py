@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -17,6 +17,7 @@ from behavior_hmm.models._policy import (
     read_channels,
     retarget,
 )
+from behavior_hmm.runtime import ordered_channels
 from behavior_hmm.runtime._policy import StepOutput
 
 FloatArray = NDArray[np.float64]
@@ -90,6 +91,15 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
         self._limit_motion = False  # the components limit their own commands
         self.reset()
+
+    def bind(self, channels: Sequence[str]) -> None:
+        """Fit every component's policy to a robot's ``channels`` (see SimplePolicy.bind)."""
+        names = list(self._channels)
+        for child in self._children.values():
+            if hasattr(child, "bind"):
+                child.bind(channels)
+            names += [c for c in child.channels if c not in names]
+        self.channels = ordered_channels(names)
 
     def reset(self) -> None:
         """Forget the previous run."""
@@ -180,7 +190,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             category = self._plannable(category)
             self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
-        at_goal = within_tolerance(values, self.goal, self._tolerance)
+        at_goal = within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
         if self._pause > 0 and not at_goal:
             # a component ended at rest: wait as long as the teacher rests at a switch
             self._pause -= 1
@@ -201,7 +211,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._handed_back = False
         # A finished component whose goal no longer holds (e.g. after a push) runs again.
         for comp, sub_goal in list(self._finished.items()):
-            if not within_tolerance(values, sub_goal):
+            if not within_tolerance(values, sub_goal, specs=self.channel_specs):
                 del self._finished[comp]
                 # the last one to run has stopped its controller: it starts afresh
                 self._redo = self._redo or comp == self._active
@@ -314,12 +324,14 @@ class ComplexPolicy(GoalTracking, RateLimited):
         if self._settling >= self._settle_cycles:
             return False
         shared = {c: g for c, g in self.goal.items() if c in child.goal}
-        if not shared or not within_tolerance(child.goal, shared, self._tolerance):
+        if not shared or not within_tolerance(
+            child.goal, shared, self._tolerance, self.channel_specs
+        ):
             return False
         # braking into its goal, or heading for the goal its demonstrations stop at (a
         # goal they only pass at speed, e.g. an approach to 0.5 m, is not one to settle in)
         own = child.model.default_goal_
-        return bool(child.braking) or within_tolerance(child.goal, own)
+        return bool(child.braking) or within_tolerance(child.goal, own, specs=self.channel_specs)
 
     def _uncovered(self, values: Mapping[str, float], planned: list[int]) -> int | None:
         """A component to run first because the plan cannot close a gap of the goal.
@@ -336,7 +348,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
         """
         effects = self.model.effects_
         for channel in self.goal:
-            if within_tolerance(values, {channel: self.goal[channel]}, self._tolerance):
+            if within_tolerance(
+                values, {channel: self.goal[channel]}, self._tolerance, self.channel_specs
+            ):
                 continue
             j = self._channels.index(channel)
             error = values[channel] - self.goal[channel]
@@ -372,7 +386,11 @@ class ComplexPolicy(GoalTracking, RateLimited):
         Components are tried in order; one that cannot reach the goal from here (its
         own plan is unreachable, e.g. an approach asked to back away) is skipped.
         """
-        missed = [c for c in self.goal if not within_tolerance(values, {c: self.goal[c]})]
+        missed = [
+            c
+            for c in self.goal
+            if not within_tolerance(values, {c: self.goal[c]}, specs=self.channel_specs)
+        ]
         effects = self.model.effects_
         for channel in missed:
             j = self._channels.index(channel)

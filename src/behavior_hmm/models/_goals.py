@@ -11,6 +11,7 @@ from behavior_hmm.data._channels import (
     CHANNELS,
     SENSOR_CHANNELS,
     TOLERANCES,
+    ChannelSpec,
     within_tolerance,
 )
 from behavior_hmm.data._validate import suggest
@@ -39,16 +40,28 @@ def check_input_names(inputs: Sequence[str], available: Sequence[str] | None = N
             raise ConfigError(f"unknown input '{name}'; choose from {', '.join(SENSOR_CHANNELS)}")
 
 
-def check_goal(goal: Mapping[str, float], allowed: tuple[str, ...]) -> dict[str, float]:
-    """Validate a goal ``{channel: value}`` against the channels a model can see."""
+def check_goal(
+    goal: Mapping[str, float],
+    allowed: tuple[str, ...],
+    specs: Mapping[str, ChannelSpec] | None = None,
+) -> dict[str, float]:
+    """Validate a goal ``{channel: value}`` against the channels a model can see.
+
+    ``specs`` are the model's own channel declarations (a robot's channels the registry
+    does not know); any channel with a tolerance can be a goal.
+    """
     if not goal:
         raise ConfigError("the goal is empty; give at least one channel, e.g. angle=0")
+    known = {**CHANNELS, **(specs or {})}
     out: dict[str, float] = {}
     for name, value in goal.items():
-        spec = CHANNELS.get(name)
+        spec = known.get(name)
         if spec is None or spec.kind != "sensor" or spec.tolerance is None:
-            goals = [c for c, s in CHANNELS.items() if s.kind == "sensor" and s.tolerance]
-            raise ConfigError(f"unknown goal channel '{name}'; choose from {', '.join(goals)}")
+            goals = [c for c in allowed if c in known and known[c].tolerance is not None]
+            raise ConfigError(
+                f"unknown goal channel '{name}'; choose from {', '.join(goals) or '(none)'}"
+                " (a goal channel needs a tolerance in its declaration)"
+            )
         if name not in allowed:
             raise ConfigError(
                 f"goal channel '{name}' is not an input of this model "

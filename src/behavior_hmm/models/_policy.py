@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import CHANNELS, TOLERANCES, within_tolerance
+from behavior_hmm.data._channels import TOLERANCES, ChannelSpec, within_tolerance
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
 from behavior_hmm.runtime._policy import StepOutput
@@ -44,6 +45,7 @@ class GoalTracking:
 
     model: Any
     goal: dict[str, float]
+    channel_specs: dict[str, ChannelSpec]
     goal_category: int
     _tolerance: float
     _goal_candidates: NDArray[np.int64]
@@ -58,6 +60,9 @@ class GoalTracking:
         same intermediate goals again and again; they depend on the model alone).
         """
         self.goal = model.resolve_goal(goal)
+        # the declaration of each channel the model reads (tolerance, wrap): the control
+        # loop judges the goal with them too
+        self.channel_specs = {c: model.channel_spec(c) for c in model.inputs_}
         memo: dict[tuple[tuple[str, float], ...], NDArray[np.int64]]
         memo = self.__dict__.setdefault("_goal_memo", {})
         key = tuple(self.goal.items())
@@ -273,7 +278,7 @@ class SimplePolicy(GoalTracking, RateLimited):
 
     def _brake_reset(self) -> None:
         """Forget the braking state; index the goal channels the model reads."""
-        slots = [(self._channels.index(c), CHANNELS[c], g) for c, g in self.goal.items()]
+        slots = [(self._channels.index(c), self.channel_specs[c], g) for c, g in self.goal.items()]
         self._brake_slots = [(i, spec, g, float(spec.tolerance or 0.0)) for i, spec, g in slots]
         self._brake_history: list[FloatArray] = []
         self._braking = False
@@ -336,7 +341,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
         still = self._still()
         settled = self._brake_hold >= BRAKE_SETTLE_CYCLES and still
-        if settled and within_tolerance(values, self.goal, self._tolerance):
+        if settled and within_tolerance(values, self.goal, self._tolerance, self.channel_specs):
             # braked to rest inside the goal's tolerance: done, whatever the category
             # (with stop_at_rest only once the readings show rest: slow wheels coast on)
             self._braking = False
@@ -344,6 +349,26 @@ class SimplePolicy(GoalTracking, RateLimited):
         # resume once at rest short of the goal (slow wheels: at most 4x as long)
         self._braking = self._brake_hold < (BRAKE_HOLD_CYCLES if still else 4 * BRAKE_HOLD_CYCLES)
         return out._replace(command=u)
+
+    def bind(self, channels: Sequence[str]) -> None:
+        """Fit the policy to a robot's ``channels`` (the control loop calls it first).
+
+        ``stop_at_rest`` reads the velocity channels (``REST_CHANNELS``); on a robot that
+        neither measures them nor can derive them it is off for this policy, and a
+        warning says so.
+        """
+        missing = [c for c in REST_CHANNELS if c not in channels]
+        if not self._at_rest or not missing:
+            return
+        self._at_rest = False
+        self.start_confirm_cycles = 0
+        self.channels = tuple(c for c in self.channels if c not in missing)
+        warnings.warn(
+            f"stop_at_rest is off for {self.model.behavior_!r}: the robot has no "
+            f"{', '.join(missing)} channel (the stop rule reads the goal tolerance only)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
 
     def _still(self) -> bool:
         """At rest by the readings when the stop rule waits for rest (``stop_at_rest``)."""
@@ -384,7 +409,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         if category in self._stop_set:
             filtered = (x + 1.0) / self._gain + self._lo
             values = dict(zip(self._channels, filtered.tolist(), strict=True))
-            if within_tolerance(values, self.goal, self._tolerance) and (
+            if within_tolerance(values, self.goal, self._tolerance, self.channel_specs) and (
                 not self._at_rest or _at_rest(reading)
             ):
                 if not self._started and self._confirmed < self.start_confirm_cycles:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import os
 from collections.abc import Mapping, Sequence
 from typing import Any, cast
@@ -12,13 +13,13 @@ from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART, suggest_dcm_scale
 from behavior_hmm.data import (
-    CHANNELS,
     DEFAULT_CUTOFF_HZ,
     SENSOR_CHANNELS,
     CommandScaler,
     Dataset,
     SignalPipeline,
 )
+from behavior_hmm.data._channels import ChannelSpec
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
 from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
 from behavior_hmm.generators._features import (
@@ -32,11 +33,7 @@ from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
-from behavior_hmm.models._goals import (
-    TOLERANCES,
-    check_goal,
-    check_input_names,
-)
+from behavior_hmm.models._goals import check_goal, check_input_names
 
 FloatArray = NDArray[np.float64]
 
@@ -407,11 +404,13 @@ class SBLM(LearnedBehavior):
         self.generators_ = gens
         self.command_scale_ = float(scaler.scale_)
         self.delta_scale_ = delta_scale
-        self.command_rates_ = command_rates(x, dataset.commands, lengths, pipeline, inputs)
+        self._record_provenance(dataset)  # and channels_, the inputs' declarations
+        self.command_rates_ = command_rates(
+            x, dataset.commands, lengths, pipeline, [self.channel_spec(c) for c in inputs]
+        )
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.stops_ = np.array(raw[finals], dtype=np.float64)
         self.train_data_: str | None = None  # set by the command line to the data file
-        self._record_provenance(dataset)
         self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
@@ -476,13 +475,20 @@ class SBLM(LearnedBehavior):
             nominal_goals = dict(_DEFAULT_GOALS)
         goal = {}
         for c, nominal in nominal_goals.items():
-            if c not in inputs:
+            tolerance = self.channel_spec(c).tolerance if c in inputs else None
+            if tolerance is None:  # not an input, or a channel that cannot be a goal
                 continue
             # where the demonstrations end; the nominal goal when they end there
             end = self.rest_values_[c]
-            goal[c] = nominal if abs(end - nominal) <= TOLERANCES[c] else round(end, 3)
+            goal[c] = nominal if abs(end - nominal) <= tolerance else round(end, 3)
         if not goal:
-            goal = {inputs[0]: self.rest_values_[inputs[0]]}
+            goals = [c for c in inputs if self.channel_spec(c).tolerance is not None]
+            if not goals:
+                raise ConfigError(
+                    f"none of the inputs {', '.join(inputs)} can be a goal: declare a "
+                    "tolerance for at least one of them (docs/robots.md)"
+                )
+            goal = {goals[0]: self.rest_values_[goals[0]]}
         return goal
 
     # ----------------------------------------------------------------- queries
@@ -491,7 +497,7 @@ class SBLM(LearnedBehavior):
         self._check_fitted()
         if goal is None:
             return dict(self.default_goal_)
-        return check_goal(goal, self.inputs_)
+        return check_goal(goal, self.inputs_, self.channels_)
 
     def check_stoppable(self, goal: Mapping[str, float] | None) -> None:
         """Refuse, before any motion, a goal where no demonstration stopped.
@@ -515,23 +521,23 @@ class SBLM(LearnedBehavior):
             return
         wanted = self.resolve_goal(goal)
         for channel, value in wanted.items():
+            spec = self.channel_spec(channel)
+            tolerance = float(spec.tolerance or 0.0)
             ends = np.sort(stops[:, self.inputs_.index(channel)])
-            slack = 2.0 * TOLERANCES[channel]
+            slack = 2.0 * tolerance
             if ends.size > 1:
                 slack = max(slack, float(np.max(np.diff(ends))))
-            gaps = np.abs(ends - value)
-            if channel == "angle":
-                gaps = np.abs((gaps + 180.0) % 360.0 - 180.0)
+            gaps = np.abs([spec.error(end, value) for end in ends])
             if float(gaps.min()) > slack:
-                unit = "deg" if channel == "angle" else "m"
-                digits = 0 if channel == "angle" else 2
+                # as many decimals as the tolerance shows: 3 deg -> 0, 0.01 m -> 2
+                digits = max(0, -math.floor(math.log10(tolerance))) if tolerance > 0 else 2
                 low, high = (round(float(e), digits) + 0.0 for e in (ends[0], ends[-1]))
                 where = f"{low:.{digits}f}"
                 if high - low > slack:
                     where += f" to {high:.{digits}f}"
                 raise UnreachableGoalError(
-                    f"goal {channel} {value:g} {unit}: this {self.behavior_} model stops only "
-                    f"where its demonstrations stopped, {channel} {where} {unit} "
+                    f"goal {channel} {value:g} {spec.unit}: this {self.behavior_} model stops "
+                    f"only where its demonstrations stopped, {channel} {where} {spec.unit} "
                     f"(±{slack:.{digits + 1}f}); "
                     f"compose it in a complex behavior to stop elsewhere"
                 )
@@ -565,6 +571,7 @@ class SBLM(LearnedBehavior):
             "default_goal": self.default_goal_,
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
+            "channels": self._channels_state(),
             "train_data": self.train_data_,
             "provenance": dict(self.provenance_),
         }
@@ -687,7 +694,7 @@ def command_rates(
     commands: np.ndarray,
     lengths: np.ndarray,
     pipeline: SignalPipeline,
-    inputs: Sequence[str],
+    inputs: Sequence[ChannelSpec],
 ) -> np.ndarray:
     """How each wheel command moves each input: least squares over the demonstrations.
 
@@ -702,9 +709,8 @@ def command_rates(
     keep = np.ones(len(x), dtype=bool)
     keep[np.cumsum(lengths) - 1] = False  # no pair across an episode's end
     change = np.diff(phys, axis=0, append=phys[-1:])
-    for j, name in enumerate(inputs):
-        spec = CHANNELS.get(name)  # a dataset's own channel (not registered) does not wrap
-        if spec is not None and spec.wraps:
+    for j, spec in enumerate(inputs):
+        if spec.wraps:
             change[:, j] = (change[:, j] + 180.0) % 360.0 - 180.0
     u = np.asarray(commands, dtype=np.float64)[keep]
     # in the wheels' common and differential parts, which a behavior rarely mixes (an

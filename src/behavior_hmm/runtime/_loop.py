@@ -37,12 +37,26 @@ def start_options(
     start: Mapping[str, float] | None,
     noise: float | None,
     pushes: Sequence[Mapping[str, float]] | None,
+    robot: Robot | None = None,
 ) -> dict[str, Any]:
-    """``env.reset`` options for a start (deg, m), sensor noise and scheduled pushes."""
+    """``env.reset`` options for a start (channel -> value), sensor noise and pushes.
+
+    A start may name any channel the robot can be placed at: its ``start_channels``
+    when it declares them, else any of its channels (contract version 2); without a
+    robot, the data contract's ``angle`` and ``distance``.
+    """
+    if robot is None:
+        allowed: Sequence[str] = ("angle", "distance")
+    elif robot.start_channels is not None:
+        allowed = robot.start_channels
+    else:
+        allowed = robot.channels
     options: dict[str, Any] = {}
     for key, value in (start or {}).items():
-        if key not in ("angle", "distance"):
-            raise ConfigError(f"unknown start channel '{key}' (use angle and/or distance)")
+        if key not in allowed:
+            raise ConfigError(
+                f"unknown start channel '{key}' (the robot starts at {', '.join(allowed)})"
+            )
         options[key] = float(value)
     if noise is not None:
         if noise < 0:
@@ -171,8 +185,11 @@ def run_policy(
     """
     robot = env if isinstance(env, Robot) else Robot(env)
     dt = robot.control_period
+    bind = getattr(policy, "bind", None)
+    if callable(bind):  # e.g. rules that read channels only some robots have
+        bind(robot.channels)
     guard = SensorHold(robot.channels, policy.channels, hold_steps(fault_hold_s, dt))
-    options = start_options(start, noise, pushes)
+    options = start_options(start, noise, pushes, robot)
     names = robot.channels
     commanded = False  # whether any command reached env.step in this run
     stopped = False
@@ -180,6 +197,8 @@ def run_policy(
         reading, true, pose = robot.reset(seed=seed, options=options)
         policy.reset()
         trace = Trace(goal=dict(policy.goal), start=dict(start or {}), channels=list(names))
+        # a policy may declare channels the registry does not know (a model's own)
+        trace.channel_specs = {**robot.channel_specs, **(getattr(policy, "channel_specs", {}))}
         reason = "step_limit"
         for k in range(max_steps):
             seen, held = guard(reading)
@@ -224,5 +243,7 @@ def run_policy(
     trace.final_pose = None if pose is None else np.asarray(pose, dtype=np.float64)
     trace.reason = reason
     values = robot.as_dict(true)
-    trace.goal_reached = reason != "sensor_fault" and within_tolerance(values, trace.goal)
+    trace.goal_reached = reason != "sensor_fault" and within_tolerance(
+        values, trace.goal, 1.0, trace.channel_specs
+    )
     return trace

@@ -22,13 +22,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import CHANNELS, SENSOR_CHANNELS
+from behavior_hmm.data._channels import (
+    CHANNELS,
+    SENSOR_CHANNELS,
+    ChannelSpec,
+    channel_from_metadata,
+)
 from behavior_hmm.data._transform import DERIVABLE
 from behavior_hmm.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
 
-#: Channels every robot must offer.
+#: Channels our own teacher and built-in behaviors (turn, approach, ...) need; the robot
+#: contract itself requires none (version 2, docs/robots.md).
 REQUIRED_CHANNELS: tuple[str, ...] = ("angle", "distance")
 
 
@@ -142,26 +148,29 @@ class Robot:
         self.env = env
         space = env.observation_space
         base = env.unwrapped
+        declared = getattr(base, "sensor_channels", None)
+        #: Declarations of the channels the robot brings (contract version 2).
+        self.channel_specs: dict[str, ChannelSpec] = _declared_channels(declared, base)
         if isinstance(space, spaces.Dict):
             names = list(space.spaces)
             self._keys: list[str] | None = names
-        elif getattr(base, "sensor_channels", None) is not None:
-            names = list(base.sensor_channels)
+        elif declared is not None and all(isinstance(c, str) for c in declared):
+            names = list(declared)
             self._keys = None
         else:
             raise ConfigError(
                 f"{type(base).__name__}'s observation_space must be a gymnasium.spaces.Dict "
                 f"keyed by channel name, got {type(space).__name__} (docs/robots.md)"
             )
-        missing = [c for c in REQUIRED_CHANNELS if c not in names]
-        if missing:
+        unknown = [c for c in self.channel_specs if c not in names]
+        if unknown:
             raise ConfigError(
-                f"{type(base).__name__} has no {', '.join(missing)} channel; a robot reads at "
-                f"least angle (deg) and distance (m) (its channels: {', '.join(names)})"
+                f"{type(base).__name__} declares sensor channel(s) {', '.join(unknown)} that "
+                f"its observation_space lacks (its channels: {', '.join(names)})"
             )
         # velocities a robot does not measure are estimated from its positions, as an
         # imported log's are (data._transform.derive_velocities)
-        self.derived = tuple(c for c in DERIVABLE if c not in names)
+        self.derived = tuple(c for c in DERIVABLE if c not in names and DERIVABLE[c] in names)
         self.channels = ordered_channels([*names, *self.derived])
         own = [c for c in self.channels if c in names]
         self._own = own
@@ -178,12 +187,27 @@ class Robot:
             for name in self.derived
         ]
         self.control_period = control_period(env)
-        self.spec = robot_spec(env)
+        self.start_channels = _start_channels(base, self.channels)
         action = getattr(env, "action_space", None)
         if action is not None and tuple(getattr(action, "shape", ())) != (2,):
             raise ConfigError(
                 f"the action_space must be Box(shape=(2,)) (left, right wheel speeds in rad/s), "
                 f"got {action}"
+            )
+
+    @property
+    def spec(self) -> RobotSpec:
+        """The robot's wheel geometry (``env.unwrapped.robot_spec``): only our own teacher
+        and the motor-limit score need it; an env without one is refused when asked."""
+        return robot_spec(self.env)
+
+    def require(self, channels: Sequence[str], who: str) -> None:
+        """Refuse a robot that lacks one of ``channels`` that ``who`` needs."""
+        missing = [c for c in channels if c not in self.channels]
+        if missing:
+            raise ConfigError(
+                f"{type(self.env.unwrapped).__name__} has no {', '.join(missing)} channel; "
+                f"{who} reads {', '.join(channels)} (its channels: {', '.join(self.channels)})"
             )
 
     @property
@@ -202,6 +226,8 @@ class Robot:
             if c in own:
                 lo, hi = own[c]
                 out[c] = (float(lo), float(hi))
+            elif c in self.channel_specs:
+                out[c] = self.channel_specs[c].range
             elif c in CHANNELS:
                 out[c] = CHANNELS[c].range
         return out
@@ -260,6 +286,48 @@ class Robot:
         """Send ``(left, right)`` rad/s for one control period; as :meth:`reset`."""
         obs, _, _, _, info = self.env.step(np.asarray(command, dtype=np.float64))
         return self._outcome(obs, info)
+
+
+def _declared_channels(declared: Any, base: Any) -> dict[str, ChannelSpec]:
+    """``env.unwrapped.sensor_channels`` as declarations: mappings ``{"name", "unit",
+    "range", ...}`` (version 2); plain names (version 1) declare nothing."""
+    if declared is None or isinstance(declared, str | bytes):
+        return {}
+    try:
+        entries = list(declared)
+    except TypeError:
+        raise ConfigError(
+            f"{type(base).__name__}.sensor_channels must be a sequence, got {declared!r}"
+        ) from None
+    out: dict[str, ChannelSpec] = {}
+    for entry in entries:
+        if isinstance(entry, str):
+            continue
+        spec = channel_from_metadata(entry)
+        if spec.kind != "sensor":
+            raise ConfigError(f"sensor channel {spec.name!r} is declared as a {spec.kind}")
+        if spec.name in out:
+            raise ConfigError(f"sensor channel {spec.name!r} is declared twice")
+        out[spec.name] = spec
+    return out
+
+
+def _start_channels(base: Any, channels: Sequence[str]) -> tuple[str, ...] | None:
+    """``env.unwrapped.start_channels`` (checked), or None: the behavior's goal channels."""
+    value = getattr(base, "start_channels", None)
+    if value is None:
+        return None
+    if isinstance(value, str) or not all(isinstance(c, str) for c in value):
+        raise ConfigError(
+            f"{type(base).__name__}.start_channels must be a sequence of channel names"
+        )
+    unknown = [c for c in value if c not in channels]
+    if unknown:
+        raise ConfigError(
+            f"start channel(s) {', '.join(unknown)} are not channels of "
+            f"{type(base).__name__} (its channels: {', '.join(channels)})"
+        )
+    return tuple(value)
 
 
 # -- building an env from what --env names ----------------------------------------------

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import CHANNELS, SENSOR_CHANNELS
+from behavior_hmm.data._channels import SENSOR_CHANNELS, ChannelSpec, channel
 
 
 @dataclass
@@ -43,6 +43,7 @@ class Trace:
     fault_channels : the channels whose fault ended the run (empty otherwise)
     final_observation : (C,) noise-free readings after the final stop command
     final_pose : pose after the final stop command (or None)
+    channel_specs : declarations of the channels the registry does not know
     """
 
     channels: list[str] = field(default_factory=lambda: list(SENSOR_CHANNELS))
@@ -64,6 +65,9 @@ class Trace:
     reason: str = ""
     fault_channels: list[str] = field(default_factory=list)
     final_observation: NDArray[np.float64] | None = None
+    #: declarations of channels the registry does not know (the robot's or the model's
+    #: own), for the goal's tolerance and an angle's wrap
+    channel_specs: dict[str, ChannelSpec] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.t)
@@ -115,7 +119,8 @@ class Trace:
             return out
         for name, target in self.goal.items():
             value = float(final[self.channels.index(name)])
-            out[name] = abs(CHANNELS[name].error(value, target))
+            spec = self.channel_specs.get(name) or channel(name)
+            out[name] = abs(spec.error(value, target))
         return out
 
     def to_columns(self) -> dict[str, Any]:

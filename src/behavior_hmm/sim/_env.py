@@ -236,7 +236,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
     @property
     def channel_ranges(self) -> dict[str, tuple[float, float]]:
         """Normalization range of each channel (the data contract's)."""
-        return dict(SENSOR_RANGES)
+        return {name: SENSOR_RANGES[name] for name in SENSOR_CHANNELS}
 
     # ------------------------------------------------------------------ extras
     def push(self, angle: float = 0.0, distance: float = 0.0) -> Obs:

@@ -20,7 +20,7 @@ import numpy as np
 
 from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M
 from behavior_hmm.errors import ConfigError, SimulationError
-from behavior_hmm.runtime import Robot, RobotSpec
+from behavior_hmm.runtime import REQUIRED_CHANNELS, Robot, RobotSpec
 from behavior_hmm.teach._behaviors import BEHAVIORS, PHASE_KINDS, Phase, behavior_spec
 from behavior_hmm.teach._profiles import DISTANCE_LIMITS, TURN_LIMITS, Limits, SCurve
 
@@ -162,6 +162,7 @@ class Teacher:
     def __init__(self, env: Any, config: TeacherConfig | None = None) -> None:
         self.env = env
         self.robot = Robot(env)
+        self.robot.require(REQUIRED_CHANNELS, "our teacher")
         spec = self.robot.spec
         self.config = config or TeacherConfig().scaled_to(spec)
         self._half_track_over_r = spec.track_width / (2.0 * spec.wheel_radius)

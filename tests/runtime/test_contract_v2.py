@@ -1,0 +1,193 @@
+"""The robot contract, version 2 (issue 26): a robot that is not wheels facing an object.
+
+A 2-D point mass driven by velocity commands declares its own sensor channels (its
+offset ``x``, ``y`` from the goal, each with a goal tolerance) in
+``env.unwrapped.sensor_channels``, and where ``reset`` can place it in
+``start_channels``. It has no ``angle``, ``distance`` or wheel geometry. An SBLM learns
+to reach the goal from demonstrations of a scripted teacher and reaches it from held-out
+starts; the goal on its declared channels works from Python, and the model file carries
+the declarations, so the goal still works after a load in a process that never saw them.
+
+The dataset schema still carries the four channels of the data contract (issue 26 leaves
+that for a later step): the demonstrations fill them with zeros.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+from behavior_hmm.data import CONTROL_PERIOD, Dataset
+from behavior_hmm.data._channels import (
+    CHANNELS,
+    TOLERANCES,
+    UNITS,
+    ChannelSpec,
+    register_channel,
+    within_tolerance,
+)
+from behavior_hmm.errors import ConfigError
+from behavior_hmm.models import SBLM, load
+from behavior_hmm.runtime import Robot
+
+VMAX = 0.3  # m/s
+
+
+class PointMass(gym.Env):  # type: ignore[type-arg]
+    """A point in the plane; commands are its x and y velocity (m/s), lagged 50 ms."""
+
+    control_period = CONTROL_PERIOD
+    sensor_channels = (
+        {"name": "x", "unit": "m", "range": [-1.0, 1.0], "tolerance": 0.01},
+        {"name": "y", "unit": "m", "range": [-1.0, 1.0], "tolerance": 0.01},
+    )
+    start_channels = ("x", "y")
+
+    def __init__(self, lag: float = 0.05) -> None:
+        box = spaces.Box(-2.0, 2.0, shape=(1,), dtype=np.float64)
+        self.observation_space = spaces.Dict({"x": box, "y": box})
+        self.action_space = spaces.Box(-VMAX, VMAX, shape=(2,), dtype=np.float64)
+        self._keep = 1.0 - math.exp(-CONTROL_PERIOD / lag)
+        self._p = np.zeros(2)
+        self._v = np.zeros(2)
+
+    def _obs(self) -> dict[str, Any]:
+        return {"x": self._p[:1].copy(), "y": self._p[1:].copy()}
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        super().reset(seed=seed)
+        left = dict(options or {})
+        self._p = np.array([float(left.pop("x", 0.5)), float(left.pop("y", 0.0))])
+        self._v = np.zeros(2)
+        if left:
+            raise ValueError(f"unknown reset options {sorted(left)}")
+        return self._obs(), {}
+
+    def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+        command = np.clip(np.asarray(action, dtype=np.float64), -VMAX, VMAX)
+        self._v += self._keep * (command - self._v)
+        self._p = self._p + self._v * CONTROL_PERIOD
+        return self._obs(), 0.0, False, False, {}
+
+
+def make(**kwargs: Any) -> PointMass:
+    """The factory ``--env tests/runtime/test_contract_v2.py:make`` names."""
+    return PointMass(**kwargs)
+
+
+def _demonstrate(env: PointMass, start: tuple[float, float]) -> dict[str, Any]:
+    """A minimum-jerk straight line to the origin, then 0.2 s at rest."""
+    p0 = np.asarray(start)
+    duration = max(1.0, 6.0 * float(np.linalg.norm(p0)))
+    obs, _ = env.reset(options={"x": start[0], "y": start[1]})
+    rows = []
+    for k in range(int((duration + 0.2) / CONTROL_PERIOD)):
+        s = min(k * CONTROL_PERIOD / duration, 1.0)
+        speed = (30 * s**2 - 60 * s**3 + 30 * s**4) / duration
+        command = -p0 * speed
+        rows.append((obs["x"][0], obs["y"][0], *command))
+        obs, *_ = env.step(command)
+    table = np.asarray(rows)
+    n = len(table)
+    zeros = np.zeros(n)
+    return {
+        "t": np.arange(n) * CONTROL_PERIOD,
+        **{c: zeros for c in ("distance", "linear_velocity", "angle", "angular_velocity")},
+        "x": table[:, 0],
+        "y": table[:, 1],
+        "left": table[:, 2],
+        "right": table[:, 3],
+    }
+
+
+@pytest.fixture(scope="module")
+def reach() -> SBLM:
+    env = make()
+    starts = [
+        (r * math.cos(a), r * math.sin(a))
+        for r in (0.2, 0.4, 0.6)
+        for a in np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
+    ]
+    episodes = [_demonstrate(env, s) for s in starts]
+    declared = list(PointMass.sensor_channels)
+    dataset = Dataset.from_episodes(episodes, {"behavior": "reach", "channels": declared})
+    return SBLM(inputs=("x", "y"), random_state=0).fit(dataset)
+
+
+HELD_OUT = [(0.5, 0.1), (-0.3, 0.35), (0.1, -0.5), (-0.45, -0.2), (0.25, 0.25)]
+
+
+def test_the_robot_declares_its_channels_and_needs_no_wheels() -> None:
+    robot = Robot(make())
+    assert robot.channels == ("x", "y")
+    assert robot.channel_specs["x"].tolerance == 0.01
+    assert robot.start_channels == ("x", "y")
+    assert "x" not in CHANNELS  # declared by the robot, not registered
+    with pytest.raises(ConfigError, match="has no robot_spec"):
+        _ = robot.spec  # only our teacher needs it
+
+
+def test_a_declaration_the_observation_lacks_is_refused() -> None:
+    env = make()
+    env.sensor_channels = (*PointMass.sensor_channels, {"name": "z", "unit": "m", "range": [0, 1]})
+    with pytest.raises(ConfigError, match=r"declares sensor channel.*z.*lacks"):
+        Robot(env)
+
+
+def test_the_model_carries_the_declarations(reach: SBLM, tmp_path: Path) -> None:
+    assert reach.channels_["x"] == ChannelSpec("x", "m", (-1.0, 1.0), tolerance=0.01)
+    path = tmp_path / "reach.bhmm"
+    reach.save(path)
+    again = load(path)
+    assert again.channels_ == reach.channels_
+    assert again.resolve_goal({"x": 0.0, "y": 0.0}) == {"x": 0.0, "y": 0.0}
+    with pytest.raises(ConfigError, match="unknown goal channel 'z'; choose from x, y"):
+        again.resolve_goal({"z": 0.0})
+    with pytest.raises(ConfigError, match="goal channel 'angle' is not an input"):
+        again.resolve_goal({"angle": 0.0})
+
+
+@pytest.mark.slow
+def test_the_point_mass_reaches_its_goal_from_held_out_starts(reach: SBLM) -> None:
+    for x0, y0 in HELD_OUT:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            trace = reach.generate(make(), start={"x": x0, "y": y0}, goal={"x": 0.0, "y": 0.0})
+        assert trace.reason == "goal" and trace.goal_reached, (x0, y0, trace.final_errors())
+        errors = trace.final_errors()
+        assert errors["x"] <= 0.01 and errors["y"] <= 0.01
+        # it moved there: the path covers the start's distance, not a stop where it began
+        path = np.abs(np.diff(trace.reading_array, axis=0)).sum()
+        assert path >= 0.9 * math.hypot(x0, y0)
+        # stop_at_rest reads velocities this robot does not have, and says it is off
+        assert any("stop_at_rest is off" in str(w.message) for w in caught)
+
+
+def test_a_start_on_a_channel_the_robot_cannot_be_placed_at_is_refused(reach: SBLM) -> None:
+    env = make()
+    env.start_channels = ("x",)
+    with pytest.raises(ConfigError, match="unknown start channel 'y'"):
+        reach.generate(env, start={"x": 0.3, "y": 0.1}, goal={"x": 0.0, "y": 0.0})
+
+
+def test_registered_channels_update_every_derived_table() -> None:
+    name = "contract_v2_heave"
+    assert name not in TOLERANCES
+    spec = register_channel(ChannelSpec(name, "mm", (0.0, 50.0), tolerance=0.5))
+    try:
+        assert TOLERANCES[name] == 0.5
+        assert UNITS[name] == "mm"
+        assert within_tolerance({name: 10.4}, {name: 10.0})
+        assert not within_tolerance({name: 10.6}, {name: 10.0})
+    finally:
+        del CHANNELS[spec.name]
+    assert name not in TOLERANCES
