@@ -119,7 +119,9 @@ def reach() -> SBLM:
     ]
     episodes = [_demonstrate(env, s) for s in starts]
     declared = list(PointMass.sensor_channels)
-    dataset = Dataset.from_episodes(episodes, {"behavior": "reach", "channels": declared})
+    dataset = Dataset.from_episodes(
+        episodes, {"behavior": "reach", "channels": declared, "goal": {"x": 0.0, "y": 0.0}}
+    )
     return SBLM(inputs=("x", "y"), random_state=0).fit(dataset)
 
 
@@ -145,6 +147,7 @@ def test_a_declaration_the_observation_lacks_is_refused() -> None:
 
 def test_the_model_carries_the_declarations(reach: SBLM, tmp_path: Path) -> None:
     assert reach.channels_["x"] == ChannelSpec("x", "m", (-1.0, 1.0), tolerance=0.01)
+    assert reach.default_goal_ == {"x": 0.0, "y": 0.0}  # the dataset's goal, declared channels
     path = tmp_path / "reach.bhmm"
     reach.save(path)
     again = load(path)

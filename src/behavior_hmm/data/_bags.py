@@ -12,19 +12,23 @@ it.
 
 from __future__ import annotations
 
+import bisect
+import contextlib
 import itertools
 import math
 import os
 import re
 import warnings
+from array import array
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any, Final
 
 import numpy as np
 from numpy.typing import NDArray
 
+from behavior_hmm._safe_read import MAX_SIDE_FILE_BYTES, check_nesting, check_regular, read_text
 from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._transform import DataImportWarning, finish, parse_derive
@@ -33,14 +37,33 @@ from behavior_hmm.data._units import (
     unit_factor,
     wrap_imported_angles,
 )
-from behavior_hmm.data._validate import check_table, suggest
-from behavior_hmm.errors import ConfigError, DatasetError
+from behavior_hmm.data._validate import MAX_CONTROL_PERIOD, MAX_ROWS, check_table, suggest
+from behavior_hmm.errors import BehaviorHMMError, ConfigError, DatasetError
 
 #: Channels a bag can fill (time and episode come from the bag itself).
 BAG_CHANNELS: Final[tuple[str, ...]] = (*SENSOR_CHANNELS, *COMMAND_CHANNELS)
 
 #: The field read when a ``--map`` or ``--episode-topic`` gives a topic only (std_msgs).
 DEFAULT_FIELD: Final[str] = "data"
+
+#: Most rows the alignment grids of one import may hold, over all bags and episodes
+#: (checked before a grid is allocated): the dataset bound ``MAX_ROWS``.
+MAX_ALIGNED_ROWS: Final[int] = MAX_ROWS
+
+#: Most grid rows per message of the mapped topics in an episode: a grid is bounded by
+#: the data it came from (at 16 ms, a value held for 16 s per message on average).
+MAX_ROWS_PER_MESSAGE: Final[int] = 1000
+
+#: Most messages of the mapped topics read from one bag.
+MAX_BAG_MESSAGES: Final[int] = 5_000_000
+
+#: Most episodes one import may give (gaps and counter changes split a bag).
+MAX_EPISODES: Final[int] = 100_000
+
+#: Shortest alignment period (s) (the longest is ``MAX_CONTROL_PERIOD``).
+MIN_PERIOD: Final[float] = 1e-6
+
+_INT64_MAX: Final[int] = 2**63 - 1
 
 _PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)\Z")
 _INDEX = re.compile(r"\[(\d+)\]")
@@ -140,8 +163,70 @@ def _extract(msg: Any, source: TopicField, bag: str) -> float:
 
 @dataclass
 class _Series:
-    times: list[int]
-    values: dict[str, list[float]]  # field -> values
+    times: Any  # int64 ns: an array('q') while reading, then sorted NDArray[np.int64]
+    values: dict[str, Any]  # field -> array('d') while reading, then NDArray[np.float64]
+
+    def finish(self) -> None:
+        """Turn the read arrays into NumPy arrays, sorted by time (stable)."""
+        times = (
+            np.frombuffer(self.times, dtype=np.int64) if len(self.times) else np.zeros(0, np.int64)
+        )
+        values = {
+            k: np.frombuffer(v, dtype=np.float64) if len(v) else np.zeros(0)
+            for k, v in self.values.items()
+        }
+        if len(times) > 1 and (np.diff(times) < 0).any():
+            order = np.argsort(times, kind="stable")
+            times = times[order]
+            values = {k: v[order] for k, v in values.items()}
+        self.times = times
+        self.values = values
+
+
+def _short(text: object, limit: int = 120) -> str:
+    out = " ".join(str(text).split()) or type(text).__name__
+    return out if len(out) <= limit else out[: limit - 3] + "..."
+
+
+def _check_bag_files(path: Path, bag: str) -> None:
+    """Refuse a bag any of whose files is not a regular file, before rosbags opens it.
+
+    A ROS 1 bag is one file; a ROS 2 bag folder holds ``metadata.yaml`` (read here within
+    ``MAX_SIDE_FILE_BYTES``) and the storage files it lists (``.db3``, ``.mcap``). A named
+    pipe or a device among them would block the reader forever.
+    """
+    if path.suffix == ".bag":
+        check_regular(path, file=bag)
+        return
+    yaml_path = path / "metadata.yaml"
+    where = str(Path(bag) / "metadata.yaml")
+    if not (yaml_path.exists() or yaml_path.is_symlink()):
+        raise DatasetError("not a ROS 2 bag folder: it has no metadata.yaml", file=bag)
+    text = read_text(yaml_path, limit=MAX_SIDE_FILE_BYTES, file=where)
+    check_nesting(text, file=where)
+    try:
+        from ruamel.yaml import YAML
+
+        info = YAML(typ="safe").load(text)
+    except Exception as exc:  # any failure to parse means "not a bag"
+        raise DatasetError(f"not readable YAML ({_short(exc)})", file=where) from None
+    if not isinstance(info, dict):
+        raise DatasetError("not a rosbag2 metadata file (not a mapping)", file=where)
+    body = info.get("rosbag2_bagfile_information")
+    files = body.get("relative_file_paths") if isinstance(body, dict) else None
+    if not isinstance(files, list) or not files:
+        raise DatasetError(
+            "not a rosbag2 metadata file (no rosbag2_bagfile_information.relative_file_paths)",
+            file=where,
+        )
+    for name in files:
+        if not isinstance(name, str) or not name:
+            raise DatasetError(
+                f"relative_file_paths holds {_short(repr(name), 60)}, not a file name", file=where
+            )
+        storage = path / PurePath(name).name
+        if storage.exists() or storage.is_symlink():
+            check_regular(storage, file=str(Path(bag) / PurePath(name).name))
 
 
 def _read_bag(
@@ -160,7 +245,7 @@ def _read_bag(
     if not path.exists():
         raise DatasetError("no such bag (a ROS 1 .bag file or a ROS 2 bag folder)", file=bag)
     is_ros1 = path.suffix == ".bag"
-    if is_ros1 and not path.is_file():
+    if is_ros1 and path.is_dir():
         raise DatasetError("not a bag: a ROS 1 bag (.bag) is a file, this is a folder", file=bag)
     if not is_ros1 and not path.is_dir():
         hint = (
@@ -171,16 +256,26 @@ def _read_bag(
         raise DatasetError(
             f"not a bag: expected a ROS 1 .bag file or a ROS 2 bag folder{hint}", file=bag
         )
+    _check_bag_files(path, bag)
     store = rb.typesys.Stores.ROS1_NOETIC if is_ros1 else rb.typesys.Stores.ROS2_HUMBLE
     typestore = rb.typesys.get_typestore(store)
-    series = {topic: _Series([], {str(f): [] for f in fs}) for topic, fs in fields_by_topic.items()}
-    counter_series = _Series([], {str(counter): []}) if counter is not None else None
+    series = {
+        topic: _Series(array("q"), {str(f): array("d") for f in fs})
+        for topic, fs in fields_by_topic.items()
+    }
+    counter_series = (
+        _Series(array("q"), {str(counter): array("d")}) if counter is not None else None
+    )
     try:
         reader = rb.highlevel.AnyReader([path], default_typestore=typestore)
         reader.open()
     except Exception as exc:  # any failure to open means "not a readable bag"
-        text = " ".join(str(exc).split())[:160] or type(exc).__name__
-        raise DatasetError(f"not a readable ROS bag ({text})", file=bag) from None
+        raise DatasetError(f"not a readable ROS bag ({_short(exc, 160)})", file=bag) from None
+    count = 0
+    last = ""
+    wanted: list[str] = []
+    connections: list[Any] = []
+    per_topic: dict[str, int] = {}
     try:
         topics = sorted(reader.topics)
         wanted = [*fields_by_topic, *([counter.topic] if counter else [])]
@@ -195,28 +290,74 @@ def _read_bag(
                     field=str(named) if named else topic,
                 )
         connections = [c for c in reader.connections if c.topic in wanted]
+        per_topic = dict.fromkeys(wanted, 0)
         for conn, stamp, raw in reader.messages(connections=connections):
+            topic = conn.topic
+            index = per_topic.get(topic, 0)
+            per_topic[topic] = index + 1
+            count += 1
+            last = f"message {index} on {topic}"
+            if count > MAX_BAG_MESSAGES:
+                raise DatasetError(
+                    f"more than MAX_BAG_MESSAGES ({MAX_BAG_MESSAGES:,}) messages on the mapped "
+                    "topics; split the bag",
+                    file=bag,
+                )
+            if type(stamp) is not int or not 0 <= stamp <= _INT64_MAX:
+                raise DatasetError(
+                    f"damaged bag: {last} has the time stamp {_short(repr(stamp), 60)}, "
+                    "not a number of nanoseconds",
+                    file=bag,
+                    field=topic,
+                )
             try:
                 msg = reader.deserialize(raw, conn.msgtype)
             except Exception as exc:
-                text = " ".join(str(exc).split())[:120] or type(exc).__name__
                 raise DatasetError(
-                    f"cannot decode a {conn.msgtype} message on {conn.topic} ({text})",
+                    f"cannot decode {last}, a {conn.msgtype} ({_short(exc)})",
                     file=bag,
-                    field=conn.topic,
+                    field=topic,
                 ) from None
-            if conn.topic in series:
-                s = series[conn.topic]
-                s.times.append(int(stamp))
-                for src in fields_by_topic[conn.topic]:
-                    s.values[str(src)].append(_extract(msg, src, bag))
-            if counter is not None and counter_series is not None and conn.topic == counter.topic:
-                counter_series.times.append(int(stamp))
-                counter_series.values[str(counter)].append(_extract(msg, counter, bag))
+            if topic in series:
+                s = series[topic]
+                values = [_extract(msg, src, bag) for src in fields_by_topic[topic]]
+                s.times.append(stamp)
+                for src, value in zip(fields_by_topic[topic], values, strict=True):
+                    s.values[str(src)].append(value)
+            if counter is not None and counter_series is not None and topic == counter.topic:
+                value = _extract(msg, counter, bag)
+                counter_series.times.append(stamp)
+                counter_series.values[str(counter)].append(value)
+    except BehaviorHMMError:
+        raise
+    except Exception as exc:  # damage that shows only while iterating
+        after = f" after {last}" if last else " before its first message"
+        raise DatasetError(
+            f"damaged bag: cannot read it{after} ({type(exc).__name__}: {_short(exc)})",
+            file=bag,
+        ) from None
     finally:
-        reader.close()
+        with contextlib.suppress(Exception):
+            reader.close()
+    short = []
+    for topic in wanted:
+        listed = sum(int(getattr(c, "msgcount", 0) or 0) for c in connections if c.topic == topic)
+        if listed and per_topic[topic] != listed:
+            short.append(f"{per_topic[topic]:,} of the {listed:,} messages on {topic}")
+    if short:
+        more = f" (and {len(short) - 1} more topics)" if len(short) > 1 else ""
+        warnings.warn(
+            DataImportWarning(
+                f"{bag}: read {short[0]}{more} that its index lists; the bag may be damaged"
+            ),
+            stacklevel=3,
+        )
+    for s in series.values():
+        s.finish()
+    if counter_series is not None:
+        counter_series.finish()
     for topic, s in series.items():
-        if not s.times:
+        if not len(s.times):
             raise DatasetError(
                 f"topic {topic} has no messages", file=bag, field=str(fields_by_topic[topic][0])
             )
@@ -233,39 +374,80 @@ def _segments(
     if counter is not None:
         values = next(iter(counter.values.values()))
         times = counter.times
-        cuts = [times[i] for i in range(len(times)) if i == 0 or values[i] != values[i - 1]]
-        if not cuts:
+        if not len(times):
             return []
+        change = np.flatnonzero(np.r_[True, values[1:] != values[:-1]])
+        cuts = times[change].tolist()
         bounds = [
             (float(c), float(cuts[k + 1]) if k + 1 < len(cuts) else math.inf)
             for k, c in enumerate(cuts)
         ]
     if split_gap is not None:
-        stamps = np.unique(np.concatenate([np.asarray(s.times) for s in series.values()]))
+        stamps = np.unique(np.concatenate([s.times for s in series.values()]))
         gaps = np.flatnonzero(np.diff(stamps) > split_gap * 1e9)
-        cut_at = [float(stamps[i + 1]) for i in gaps]
+        cut_at = [float(c) for c in stamps[gaps + 1].tolist()]  # sorted
         out: list[tuple[float, float]] = []
         for a, b in bounds:
-            edges = [a, *[c for c in cut_at if a < c < b], b]
-            out.extend(itertools.pairwise(edges))
+            inside = cut_at[bisect.bisect_right(cut_at, a) : bisect.bisect_left(cut_at, b)]
+            out.extend(itertools.pairwise([a, *inside, b]))
         bounds = out
     return bounds
 
 
+def _largest_gap(parts: Sequence[NDArray[np.int64]]) -> tuple[float, float, float]:
+    """The longest stretch without a message on any mapped topic: (gap, from, to) in s,
+    from and to counted from the first message."""
+    stamps = np.unique(np.concatenate(parts))
+    if len(stamps) < 2:
+        return 0.0, float(stamps[0]) / 1e9, float(stamps[0]) / 1e9
+    i = int(np.argmax(np.diff(stamps)))
+    first, a, b = int(stamps[0]), int(stamps[i]), int(stamps[i + 1])
+    return (b - a) / 1e9, (a - first) / 1e9, (b - first) / 1e9
+
+
 def _align(
-    series: Mapping[str, _Series], start: float, end: float, period_ns: int
+    series: Mapping[str, _Series],
+    start: float,
+    end: float,
+    period_ns: int,
+    *,
+    bag: str,
+    rows_before: int = 0,
 ) -> tuple[NDArray[np.int64], dict[str, NDArray[np.float64]]] | None:
-    """Ticks (ns) and each field's zero-order-held value, or None if a topic is silent."""
+    """Ticks (ns) and each field's zero-order-held value, or None if a topic is silent.
+
+    The grid is refused before it is allocated if it would take the import past
+    ``MAX_ALIGNED_ROWS`` rows, or hold more than ``MAX_ROWS_PER_MESSAGE`` rows per message
+    it came from.
+    """
     parts = []
     for s in series.values():
-        times = np.asarray(s.times, dtype=np.int64)
-        keep = (times >= start) & (times < end)
-        if not keep.any():
+        lo = 0 if start == -math.inf else int(np.searchsorted(s.times, start, side="left"))
+        hi = len(s.times) if end == math.inf else int(np.searchsorted(s.times, end, side="left"))
+        if hi <= lo:
             return None
-        parts.append((times[keep], {k: np.asarray(v)[keep] for k, v in s.values.items()}))
+        parts.append((s.times[lo:hi], {k: v[lo:hi] for k, v in s.values.items()}))
     t0 = max(int(times[0]) for times, _ in parts)
     t_end = max(int(times[-1]) for times, _ in parts)
-    ticks = t0 + period_ns * np.arange((t_end - t0) // period_ns + 1, dtype=np.int64)
+    n = (t_end - t0) // period_ns + 1
+    messages = sum(len(times) for times, _ in parts)
+    too_many = rows_before + n > MAX_ALIGNED_ROWS
+    if too_many or n > MAX_ROWS_PER_MESSAGE * messages:
+        gap, since, until = _largest_gap([times for times, _ in parts])
+        limit = (
+            f"past MAX_ALIGNED_ROWS ({MAX_ALIGNED_ROWS:,} rows in all)"
+            if too_many
+            else f"from only {messages:,} messages, more than MAX_ROWS_PER_MESSAGE "
+            f"({MAX_ROWS_PER_MESSAGE:,}) rows per message"
+        )
+        raise DatasetError(
+            f"aligning it at {period_ns / 1e6:g} ms gives {n:,} rows {limit}: no mapped topic "
+            f"has a message for {gap:,.6g} s (from {since:,.3f} s to {until:,.3f} s after the "
+            "episode's first message); "
+            "split the bag at such gaps with --split-gap SECONDS",
+            file=bag,
+        )
+    ticks = t0 + period_ns * np.arange(n, dtype=np.int64)
     values: dict[str, NDArray[np.float64]] = {}
     for times, fields in parts:
         idx = np.searchsorted(times, ticks, side="right") - 1
@@ -383,6 +565,13 @@ def import_bags(
         )
     if split_gap is not None and not (math.isfinite(split_gap) and split_gap > 0):
         raise ConfigError(f"--split-gap must be a number of seconds > 0, got {split_gap}")
+    if isinstance(period, bool) or not isinstance(period, int | float):
+        raise ConfigError(f"the alignment period must be a number of seconds, got {period!r}")
+    if not (math.isfinite(period) and MIN_PERIOD <= period <= MAX_CONTROL_PERIOD):
+        raise ConfigError(
+            f"the alignment period must be in [{MIN_PERIOD:g}, {MAX_CONTROL_PERIOD:g}] s, "
+            f"got {period}"
+        )
     period_ns = round(period * 1e9)
 
     reads: list[TopicField] = list(sources.values())
@@ -392,6 +581,7 @@ def import_bags(
     episodes_md: list[dict[str, Any]] = []
     bag_names: list[str] = []
     next_id = 0
+    rows = 0
     for raw_path in paths:
         path = Path(raw_path)
         bag = str(raw_path)
@@ -400,7 +590,7 @@ def import_bags(
         bag_cols: dict[str, list[NDArray[Any]]] = {c: [] for c in columns if c not in derived}
         first_id = next_id
         for start, end in _segments(series, split_gap, counter_series):
-            aligned = _align(series, start, end, period_ns)
+            aligned = _align(series, start, end, period_ns, bag=bag, rows_before=rows)
             if aligned is None:
                 warnings.warn(
                     DataImportWarning(
@@ -411,6 +601,13 @@ def import_bags(
                 continue
             ticks, values = aligned
             n = len(ticks)
+            rows += n
+            if next_id >= MAX_EPISODES:
+                raise DatasetError(
+                    f"more than MAX_EPISODES ({MAX_EPISODES:,}) episodes (a counter topic that "
+                    "changes at every message, or a --split-gap shorter than the period?)",
+                    file=bag,
+                )
             bag_cols["episode"].append(np.full(n, next_id, dtype=np.int64))
             bag_cols["t"].append((ticks - ticks[0]) / 1e9)
             for channel, src in sources.items():

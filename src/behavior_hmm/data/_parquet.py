@@ -22,12 +22,26 @@ import pyarrow.parquet as pq
 from numpy.typing import NDArray
 
 from behavior_hmm._atomic import atomic_write_with
+from behavior_hmm._safe_read import MAX_SIDE_FILE_BYTES, check_regular, parse_json
 from behavior_hmm.data._dataset import Dataset
-from behavior_hmm.data._validate import check_column_names, check_table, declared_channels
-from behavior_hmm.errors import DatasetError
+from behavior_hmm.data._validate import (
+    MAX_ROWS,
+    canonical_metadata,
+    check_column_names,
+    check_table,
+    declared_channels,
+)
+from behavior_hmm.errors import BehaviorHMMError, DatasetError
 
 #: Schema metadata key under which the dataset metadata (JSON) is stored.
 METADATA_KEY: Final[bytes] = b"behavior_hmm"
+
+#: Most bytes a dataset file's columns may take once decompressed (the footer's
+#: uncompressed sizes are checked before the table is read, the columns as they are).
+MAX_UNCOMPRESSED_BYTES: Final[int] = 256 * 1024 * 1024
+
+#: Most bytes of the dataset metadata (JSON) a file may carry.
+MAX_METADATA_BYTES: Final[int] = MAX_SIDE_FILE_BYTES
 
 
 def _one_line(exc: BaseException, limit: int = 160) -> str:
@@ -75,19 +89,77 @@ def write(ds: Dataset, path: str | os.PathLike[str]) -> Path:
     return target
 
 
+def _metadata_error(reason: str, file: str) -> BehaviorHMMError:
+    return DatasetError(f"metadata is {reason}", file=file, field="metadata")
+
+
 def _metadata_from_schema(schema: pa.Schema, file: str) -> dict[str, Any]:
     raw = (schema.metadata or {}).get(METADATA_KEY)
     if raw is None:
         return {}
+    if len(raw) > MAX_METADATA_BYTES:
+        raise _metadata_error(
+            f"{len(raw):,} bytes, more than MAX_METADATA_BYTES ({MAX_METADATA_BYTES:,})", file
+        )
     try:
-        md = json.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
-        raise DatasetError(
-            f"metadata is not valid JSON ({_one_line(exc)})", file=file, field="metadata"
-        ) from None
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise _metadata_error(f"not valid JSON (not UTF-8 text: byte {exc.start})", file) from None
+    md = parse_json(text, file=file, error=_metadata_error)
     if not isinstance(md, dict):
         raise DatasetError("metadata is not a JSON object", file=file, field="metadata")
     return md
+
+
+def _check_footer(pf: pq.ParquetFile, file: str) -> None:
+    """Refuse, from the footer alone, a file whose table would be too large to read."""
+    meta = pf.metadata
+    rows = int(meta.num_rows)
+    if rows > MAX_ROWS:
+        raise DatasetError(
+            f"{rows:,} rows, more than MAX_ROWS ({MAX_ROWS:,}); split the dataset", file=file
+        )
+    size = 0
+    for i in range(meta.num_row_groups):
+        group = meta.row_group(i)
+        columns = sum(
+            max(int(group.column(j).total_uncompressed_size), 0) for j in range(group.num_columns)
+        )
+        size += max(int(group.total_byte_size), columns)
+        if size > MAX_UNCOMPRESSED_BYTES:
+            raise DatasetError(
+                f"its columns take more than MAX_UNCOMPRESSED_BYTES "
+                f"({MAX_UNCOMPRESSED_BYTES // (1024 * 1024)} MiB) once decompressed "
+                f"(row group {i}); split the dataset",
+                file=file,
+            )
+
+
+def _read_table(pf: pq.ParquetFile, file: str) -> pa.Table:
+    """The table, one row group at a time, within ``MAX_ROWS`` and ``MAX_UNCOMPRESSED_BYTES``."""
+    parts = []
+    rows = 0
+    size = 0
+    for i in range(pf.num_row_groups):
+        part = pf.read_row_group(i)
+        rows += part.num_rows
+        size += part.nbytes
+        if rows > MAX_ROWS or size > MAX_UNCOMPRESSED_BYTES:
+            raise DatasetError(
+                f"row group {i} decompresses past MAX_ROWS ({MAX_ROWS:,} rows) or "
+                f"MAX_UNCOMPRESSED_BYTES ({MAX_UNCOMPRESSED_BYTES // (1024 * 1024)} MiB), "
+                "more than its footer states",
+                file=file,
+            )
+        parts.append(part)
+    if rows != pf.metadata.num_rows:
+        raise DatasetError(
+            f"the footer states {pf.metadata.num_rows:,} rows but the row groups hold {rows:,}",
+            file=file,
+        )
+    if not parts:
+        return pf.schema_arrow.empty_table()
+    return pa.concat_tables(parts)
 
 
 def _column_to_numpy(table: pa.Table, name: str, file: str) -> NDArray[Any]:
@@ -137,19 +209,23 @@ def read(path: str | os.PathLike[str], *, behaviors: Collection[str] | None = No
         For anything wrong with the file, naming file, episode, row and field.
     """
     file = str(path)
-    p = Path(path)
-    if not p.exists():
-        raise DatasetError("no such file", file=file)
-    if p.is_dir():
+    if Path(path).is_dir():
         raise DatasetError("is a directory, not a Parquet file", file=file)
+    # a FIFO, a device or a socket is refused before pyarrow opens it (never waited on)
+    p = check_regular(path, file=file)
     try:
         with pq.ParquetFile(p, page_checksum_verification=True) as pf:
-            table = pf.read()
+            _check_footer(pf, file)
+            # the metadata is validated like user input before the table is read
+            metadata = _metadata_from_schema(pf.schema_arrow, file)
+            canonical_metadata(metadata, file=file)
+            extra = [spec.name for spec in declared_channels(metadata, file=file)]
+            check_column_names(pf.schema_arrow.names, file=file, extra=extra)
+            table = _read_table(pf, file)
+    except BehaviorHMMError:
+        raise
     except Exception as exc:  # any failure to parse means "not a dataset"
         raise DatasetError(f"not a readable Parquet file ({_one_line(exc)})", file=file) from None
-    metadata = _metadata_from_schema(table.schema, file)
-    extra = [spec.name for spec in declared_channels(metadata, file=file)]
-    check_column_names(table.column_names, file=file, extra=extra)
 
     # Nulls: locate them by episode and row where the episode column allows it.
     null_at = _first_null(table, "episode")

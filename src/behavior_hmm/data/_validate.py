@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import math
 import re
 from collections.abc import Collection, Iterable, Mapping
 from typing import Any, Final
@@ -24,7 +25,7 @@ from behavior_hmm.data._channels import (
     ChannelSpec,
     channel_from_metadata,
 )
-from behavior_hmm.errors import DatasetError
+from behavior_hmm.errors import ConfigError, DatasetError
 
 #: Version of the dataset schema this package writes and reads.
 SCHEMA_VERSION: Final[int] = 1
@@ -51,6 +52,25 @@ _NAME_RE = re.compile(r"[a-z][a-z0-9_-]{0,63}\Z")
 _CHANNEL_NAME_RE = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")
 
 _INT64_MAX = np.iinfo(np.int64).max
+_INT64_MIN = np.iinfo(np.int64).min
+
+#: Most rows a dataset file may hold (a Parquet file's footer is checked against it
+#: before the table is read; a bag's alignment grid before it is allocated): about 8.9
+#: hours at the 16 ms control period, some 0.25 GiB of columns.
+MAX_ROWS: Final[int] = 2_000_000
+
+#: Largest control period (s) the metadata may state (the robot contract's bound).
+MAX_CONTROL_PERIOD: Final[float] = 10.0
+
+#: Largest magnitude of a number in the metadata that a model keeps (a goal, a
+#: normalization range): the model file's own bound, so that a model trained on the
+#: dataset can be loaded again.
+MAX_METADATA_VALUE: Final[float] = 1e6
+
+#: Longest text (characters) of a metadata entry a model keeps (``env``, ``simulator``).
+MAX_METADATA_TEXT: Final[int] = 4096
+
+_LINE_BREAKS = re.compile(r"[\x00-\x1f\x7f\x85\u2028\u2029]")
 
 
 def suggest(name: str, candidates: Iterable[str]) -> str:
@@ -265,7 +285,208 @@ def canonical_metadata(
             check_behavior_name(name, file=file, field="behaviors")
     if out.get("channels") is not None:
         out["channels"] = [spec.to_metadata() for spec in declared_channels(out, file=file)]
+    check_metadata_values(out, file=file)
     return out
+
+
+def _short(value: object, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a hostile value can be huge)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _finite(value: object) -> bool:
+    """A finite int or float (not a bool); an int too large for a float is not."""
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _metadata_error(message: str, file: str | None, key: str) -> DatasetError:
+    return DatasetError(message, file=file, field=f"metadata {key}")
+
+
+def check_metadata_values(metadata: Mapping[str, Any], *, file: str | None = None) -> None:
+    """Refuse a metadata entry the package reads back, if its type or range is wrong.
+
+    Metadata read back from a file is validated like user input, before any work
+    starts: every key a learner, filter or command reads (``goal``, ``control_period``,
+    ``ranges``, ``corrective_episodes``, ``corrections``, ``env``, ``simulator``;
+    ``schema_version``, ``behavior``, ``behaviors`` and ``channels`` are checked by
+    :func:`canonical_metadata`). Other keys are kept as given.
+
+    Raises
+    ------
+    DatasetError
+        One line naming the file and the key (``field 'metadata goal'``).
+    """
+    _check_goal(metadata.get("goal"), file, _declared(metadata.get("channels")))
+    period = metadata.get("control_period")
+    if period is not None and not (_finite(period) and 0 < period <= MAX_CONTROL_PERIOD):
+        raise _metadata_error(
+            f"control_period must be a number of seconds in (0, {MAX_CONTROL_PERIOD:g}], "
+            f"got {_short(period)}",
+            file,
+            "control_period",
+        )
+    _check_ranges(metadata.get("ranges"), file)
+    corrective = metadata.get("corrective_episodes")
+    if corrective is not None:
+        if not isinstance(corrective, list):
+            raise _metadata_error(
+                f"corrective_episodes must be a list of episode ids, got {_short(corrective)}",
+                file,
+                "corrective_episodes",
+            )
+        for eid in corrective:
+            if not (
+                isinstance(eid, int)
+                and not isinstance(eid, bool)
+                and _INT64_MIN <= eid <= _INT64_MAX
+            ):
+                raise _metadata_error(
+                    f"corrective_episodes must hold episode ids (int64 integers), got "
+                    f"{_short(eid)}",
+                    file,
+                    "corrective_episodes",
+                )
+    _check_corrections(metadata.get("corrections"), file)
+    for key in ("env", "simulator"):
+        value = metadata.get(key)
+        if value is not None and not (
+            isinstance(value, str)
+            and len(value) <= MAX_METADATA_TEXT
+            and _LINE_BREAKS.search(value) is None
+        ):
+            raise _metadata_error(
+                f"{key} must be one line of text of at most {MAX_METADATA_TEXT} characters, "
+                f"got {_short(value)}",
+                file,
+                key,
+            )
+
+
+def _declared(entries: object) -> dict[str, ChannelSpec]:
+    """The channels a dataset's metadata declares (malformed ones are refused elsewhere)."""
+    out: dict[str, ChannelSpec] = {}
+    for entry in entries if isinstance(entries, list) else []:
+        if isinstance(entry, ChannelSpec):
+            out[entry.name] = entry
+            continue
+        try:
+            spec = channel_from_metadata(entry)
+        except (ConfigError, TypeError, ValueError):
+            continue
+        out[spec.name] = spec
+    return out
+
+
+def _check_goal(
+    goal: object, file: str | None, declared: Mapping[str, ChannelSpec] | None = None
+) -> None:
+    """``goal``: ``{channel: value}`` on goal channels (with a tolerance), values in range.
+
+    A goal channel is a registered channel or one the dataset declares (``channels``).
+    """
+    if goal is None:
+        return
+    if not isinstance(goal, dict):
+        raise _metadata_error(
+            f"goal must be an object {{channel: value}}, got {_short(goal)}", file, "goal"
+        )
+    known = {**CHANNELS, **(declared or {})}
+    goals = [c for c, s in known.items() if s.kind == "sensor" and s.tolerance is not None]
+    for name, value in goal.items():
+        spec = known.get(name) if isinstance(name, str) else None
+        if spec is None or spec.kind != "sensor" or spec.tolerance is None:
+            raise _metadata_error(
+                f"unknown goal channel {_short(name)} (goal channels: {', '.join(goals)})",
+                file,
+                "goal",
+            )
+        if not _finite(value):
+            raise _metadata_error(
+                f"goal {name} must be a finite number, got {_short(value)}", file, "goal"
+            )
+        lo, hi = (-180.0, 180.0) if spec.wraps else spec.bounds or spec.range
+        lo = max(lo, 0.0) if spec.range[0] >= 0.0 else lo
+        lo, hi = max(lo, -MAX_METADATA_VALUE), min(hi, MAX_METADATA_VALUE)
+        if not lo <= value <= hi:
+            raise _metadata_error(
+                f"goal {name} {value:g} {spec.unit} not in [{lo:g}, {hi:g}]", file, "goal"
+            )
+
+
+def _check_ranges(ranges: object, file: str | None) -> None:
+    """``ranges``: ``{channel: [lo, hi]}``, finite, ``lo < hi``, within the model's bounds."""
+    if ranges is None:
+        return
+    if not isinstance(ranges, dict):
+        raise _metadata_error(
+            f"ranges must be an object {{channel: [lo, hi]}}, got {_short(ranges)}",
+            file,
+            "ranges",
+        )
+    for name, pair in ranges.items():
+        if not _CHANNEL_NAME_RE.match(name):
+            raise _metadata_error(
+                f"range given for {_short(name)}, which is not a channel name", file, "ranges"
+            )
+        if not (isinstance(pair, list) and len(pair) == 2 and all(_finite(v) for v in pair)):
+            raise _metadata_error(
+                f"range of {name} must be [lo, hi] (two finite numbers), got {_short(pair)}",
+                file,
+                "ranges",
+            )
+        lo, hi = float(pair[0]), float(pair[1])
+        if not lo < hi:
+            raise _metadata_error(
+                f"range of {name} must satisfy lo < hi, got [{lo:g}, {hi:g}]", file, "ranges"
+            )
+        if max(abs(lo), abs(hi)) > MAX_METADATA_VALUE or hi - lo < 1.0 / MAX_METADATA_VALUE:
+            raise _metadata_error(
+                f"range of {name} must lie within ±{MAX_METADATA_VALUE:g} and span at least "
+                f"{1.0 / MAX_METADATA_VALUE:g}, got [{lo:g}, {hi:g}]",
+                file,
+                "ranges",
+            )
+
+
+def _check_corrections(corrections: object, file: str | None) -> None:
+    """``corrections``: ``{"copies": int >= 0, "noise": number >= 0, "disturbs": [names]}``."""
+    if corrections is None:
+        return
+    if not isinstance(corrections, dict):
+        raise _metadata_error(
+            f"corrections must be an object, got {_short(corrections)}", file, "corrections"
+        )
+    copies = corrections.get("copies")
+    if copies is not None and not (
+        isinstance(copies, int) and not isinstance(copies, bool) and 0 <= copies <= _INT64_MAX
+    ):
+        raise _metadata_error(
+            f"corrections.copies must be an integer >= 0, got {_short(copies)}",
+            file,
+            "corrections",
+        )
+    noise = corrections.get("noise")
+    if noise is not None and not (_finite(noise) and noise >= 0):
+        raise _metadata_error(
+            f"corrections.noise must be a number >= 0, got {_short(noise)}", file, "corrections"
+        )
+    disturbs = corrections.get("disturbs")
+    if disturbs is not None and not (
+        isinstance(disturbs, list)
+        and all(isinstance(c, str) and _CHANNEL_NAME_RE.match(c) for c in disturbs)
+    ):
+        raise _metadata_error(
+            f"corrections.disturbs must be a list of channel names, got {_short(disturbs)}",
+            file,
+            "corrections",
+        )
 
 
 def check_table(
