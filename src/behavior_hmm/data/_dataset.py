@@ -17,6 +17,7 @@ from behavior_hmm.data._validate import (
     check_column_names,
     check_table,
     declared_channels,
+    own_channels_only,
     suggest,
 )
 from behavior_hmm.errors import ConfigError, DatasetError
@@ -181,7 +182,9 @@ class Dataset:
         self._episode = _readonly(np.ascontiguousarray(cols["episode"], dtype=np.int64))
         self._t = _readonly(np.ascontiguousarray(cols["t"], dtype=np.float64))
         self._extras = declared_channels(md)
-        self._sensor_channels = (*SENSOR_CHANNELS, *(spec.name for spec in self._extras))
+        # the data contract's four, unless the dataset holds a robot's own channels only
+        contract = tuple(c for c in SENSOR_CHANNELS if c in cols)
+        self._sensor_channels = (*contract, *(spec.name for spec in self._extras))
         self._sensors = _readonly(np.stack([cols[c] for c in self._sensor_channels], axis=1))
         self._commands = _readonly(np.stack([cols[c] for c in COMMAND_CHANNELS], axis=1))
         behavior = cols.get("behavior")
@@ -213,8 +216,13 @@ class Dataset:
         metadata
             See :class:`Dataset`.
         """
+        episodes = list(episodes)
         extra = [spec.name for spec in declared_channels(metadata)]
-        names_needed = (*REQUIRED_COLUMNS, *extra)
+        names_needed: tuple[str, ...] = (*REQUIRED_COLUMNS, *extra)
+        first = episodes[0] if episodes else {}
+        first_names = first.to_dict() if isinstance(first, Episode) else first
+        if isinstance(first_names, Mapping) and own_channels_only(first_names, extra):
+            names_needed = tuple(c for c in names_needed if c not in SENSOR_CHANNELS)
         parts: dict[str, list[NDArray[Any]]] = {c: [] for c in (*names_needed, "behavior")}
         with_behavior: list[bool] = []
         for position, item in enumerate(episodes):
@@ -319,7 +327,8 @@ class Dataset:
         The four of the data contract come from ``CHANNELS``, the others from the
         metadata's ``channels`` declarations.
         """
-        return [CHANNELS[name] for name in SENSOR_CHANNELS] + list(self._extras)
+        contract = [CHANNELS[n] for n in SENSOR_CHANNELS if n in self._sensor_channels]
+        return contract + list(self._extras)
 
     @property
     def numeric_channels(self) -> tuple[str, ...]:

@@ -155,6 +155,16 @@ def declared_channels(metadata: object, *, file: str | None = None) -> tuple[Cha
     return tuple(specs)
 
 
+def own_channels_only(names: Collection[str], declared: Collection[str]) -> bool:
+    """Whether a table of columns ``names`` holds a robot's own channels only.
+
+    A robot that is not our Khepera (a point mass, an arm) declares its channels and
+    has none of the data contract's four sensors: then those four are not required.
+    A table with some of them still needs all four.
+    """
+    return bool(declared) and not any(c in names for c in SENSOR_CHANNELS)
+
+
 def check_column_names(
     names: Iterable[str],
     *,
@@ -174,6 +184,8 @@ def check_column_names(
         if name in seen:
             raise DatasetError("column appears twice", file=file, field=name)
         seen.add(name)
+    if own_channels_only(seen, extra):
+        required = [c for c in required if c not in SENSOR_CHANNELS]
     missing = [c for c in required if c not in seen]
     missing_extra = [c for c in extra if c not in seen]
     for name in names:
@@ -570,7 +582,12 @@ def check_table(
     out: dict[str, NDArray[Any]] = {"episode": episode}
 
     # Float columns: numeric type, finite, within plausible bounds.
-    floats = [(name, UNITS[name], VALUE_BOUNDS.get(name)) for name in FLOAT_COLUMNS]
+    own_only = own_channels_only(arrays, [spec.name for spec in extras])
+    floats = [
+        (name, UNITS[name], VALUE_BOUNDS.get(name))
+        for name in FLOAT_COLUMNS
+        if not (own_only and name in SENSOR_CHANNELS)
+    ]
     floats += [(spec.name, spec.unit, spec.bounds) for spec in extras]
     for name, unit, bounds in floats:
         arr = arrays[name]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -13,6 +14,7 @@ from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.evaluate._executor import Executor
 from behavior_hmm.evaluate._metrics import (
     command_jump_ratio,
+    path_metrics,
     success_rate,
     switches,
     zero_floor,
@@ -69,8 +71,15 @@ def evaluate_model(
     case_options: CaseOptions | None = None,
     push: Mapping[str, float] | None = None,
     executor: Executor | None = None,
+    teacher: Any | None = None,
+    reference: Any | None = None,
 ) -> dict[str, Any]:
     """Run ``model`` (and baselines) from every start and score them against the teacher.
+
+    The reference of each start is our jerk-limited teacher's run for the model's
+    behavior, or ``teacher``'s run (any teacher, :mod:`behavior_hmm.teach._external`),
+    or a recorded demonstration (``reference``: a dataset whose episodes are the
+    references and whose first readings are the starts).
 
     Parameters
     ----------
@@ -106,6 +115,14 @@ def evaluate_model(
         ``distance`` metres (the env's ``push`` option). Each case records ``pushed``
         (the run was still going at that step); ``goal_reached`` is judged at the end,
         after the push.
+    teacher
+        A teacher object (``reset(start, goal)``, ``step(observation, info)``) run in
+        the reference env from every start to the case's goal (default: the model's).
+    reference
+        A :class:`~behavior_hmm.data.Dataset` of recorded demonstrations: episode ``i``
+        is case ``i``'s reference and its first reading on the start channels (the
+        robot's ``start_channels``, default the model's goal channels) is the start;
+        ``starts`` must then be empty.
     executor
         Runs the start cases as independent tasks (each: the teacher's reference, then
         every runner from that start, in a fresh ``make_env(sim)``); the model and
@@ -119,16 +136,22 @@ def evaluate_model(
     dict
         The evaluation JSON contract: ``behavior``, ``inputs``, ``n``, ``success_rate_mean``,
         ``goal_reached``, ``zero_floor_mean``, ``success_rate_motor_max_mean``, ``cases``
-        and ``baselines`` (same summary per baseline).
+        and ``baselines`` (same summary per baseline). Every case also holds ``path``:
+        DTW, discrete Fréchet and (2-D) swept area between the generated and the
+        reference path on the goal channels (:func:`path_metrics`), and
+        ``final_errors`` on every goal channel.
     """
     from behavior_hmm.sim import make_env
 
-    if not starts:
-        raise ConfigError("no starts to evaluate")
+    if teacher is not None and reference is not None:
+        raise ConfigError("give a teacher or a reference dataset, not both")
+    if reference is not None and starts:
+        raise ConfigError("a reference dataset brings its own starts; give no starts")
     if push is not None:
         _check_push(push)  # before any case runs, in whichever process
-    # the caller's own objects (a robot, a hook) stay in this process: see ``executor``
-    pool = executor if env is None and sim is not None and case_options is None else None
+    # the caller's own objects (a robot, a hook, a teacher) stay in this process
+    own = env is not None or sim is None or case_options is not None
+    pool = None if own or teacher is not None or reference is not None else executor
     if sim is None:
         if env is None:
             raise ConfigError("evaluate_model needs sim or env")
@@ -137,8 +160,27 @@ def evaluate_model(
         reference_env = make_env(sim)
     if env is None:
         env = reference_env
-    motor_max = Robot(reference_env).spec.max_wheel_speed
+    robot = Robot(reference_env)
     behavior = str(model.behavior_)
+    recorded: list[dict[str, np.ndarray] | None] = [None] * len(starts)
+    if reference is not None:
+        starts, recorded = _recorded_cases(reference, model, robot)  # type: ignore[assignment]
+    elif teacher is None:
+        from behavior_hmm.teach import behavior_spec
+
+        try:
+            behavior_spec(behavior)
+        except ConfigError:
+            raise ConfigError(
+                f"the model's behavior '{behavior}' has no teacher of ours; score it against "
+                "your own teacher (--teacher) or recorded demonstrations (--reference DATASET)"
+            ) from None
+    if not starts:
+        raise ConfigError("no starts to evaluate")
+    try:
+        motor_max: float | None = robot.spec.max_wheel_speed
+    except ConfigError:  # a robot without wheel geometry: no motor-limit variant
+        motor_max = None
     scale = float(model.command_scale_)
     runners = {"model": model, **dict(baselines or {})}
     tasks = [
@@ -154,6 +196,8 @@ def evaluate_model(
             scale=scale,
             motor_max=motor_max,
             keep_traces=keep_traces,
+            external=teacher is not None or reference is not None,
+            recorded=recorded[i],
         )
         for i, row in enumerate(starts)
     ]
@@ -168,7 +212,9 @@ def evaluate_model(
             if progress is not None:
                 progress(done, total)
 
-        outcomes = [_run_case(task, env, reference_env, case_options, ran) for task in tasks]
+        outcomes = [
+            _run_case(task, env, reference_env, case_options, ran, teacher) for task in tasks
+        ]
     else:
 
         def cases_done(finished: int, _: int) -> None:
@@ -196,7 +242,9 @@ def evaluate_model(
             "motor_max": motor_max,
             # a demonstration that saturated the motors makes the headline the lenient
             # motor-limit variant (DESIGN §6): flag it rather than report it silently
-            "command_scale_at_motor_limit": bool(scale >= 0.999 * motor_max),
+            "command_scale_at_motor_limit": motor_max is not None
+            and bool(scale >= 0.999 * motor_max),
+            "reference": "recorded" if reference is not None else "teacher",
             "cases": cases["model"],
             "baselines": {
                 name: {**_summary(cases[name]), "cases": cases[name]}
@@ -215,9 +263,11 @@ class _Case:
     """One start case of an evaluation: everything it needs but its robot (picklable).
 
     ``index`` is the case's place in the starts (its seed is ``seed + index``, its push
-    sign drawn from ``(seed, index)``); ``scale`` and ``motor_max`` (rad/s) normalize
-    the success rates; ``sim=None`` means the caller's own robot, whose starts may lie
-    beyond our arena.
+    sign drawn from ``(seed, index)``); ``scale`` and ``motor_max`` (rad/s; None for a
+    robot without wheel geometry) normalize the success rates; ``sim=None`` means the
+    caller's own robot, whose starts may lie beyond our arena. ``external``: the
+    reference comes from a teacher of the user's or a recording (``recorded``, the
+    demonstration's columns), and the start is taken as given.
     """
 
     index: int
@@ -229,8 +279,10 @@ class _Case:
     noise: float
     push: Mapping[str, float] | None
     scale: float
-    motor_max: float
+    motor_max: float | None
     keep_traces: bool
+    external: bool = False
+    recorded: dict[str, np.ndarray] | None = None
 
 
 #: A case's scores by runner, and (``keep_traces``) its ``(trace, reference)`` by runner.
@@ -252,18 +304,30 @@ def _run_case(
     reference_env: Any,
     case_options: CaseOptions | None,
     ran: Callable[[], None] | None,
+    teacher: Any | None = None,
 ) -> _CaseOutcome:
-    """The teacher's reference from the case's start in ``reference_env``, then every
-    runner from that start in ``env``, scored against it (``ran()`` after each runner)."""
+    """The reference from the case's start (the teacher's run in ``reference_env``, or
+    the recording), then every runner from that start in ``env``, scored against it
+    (``ran()`` after each runner)."""
     from behavior_hmm.teach import complete_start
+    from behavior_hmm.teach._external import teacher_demonstration
 
     i, seed, noise = case.index, case.seed, case.noise
     max_distance = None if case.sim is not None else math.inf
     begin, case_goal = split_start(case.row)
-    full = complete_start(case.behavior, begin, max_distance)
-    demo = reference_demonstration(
-        case.behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
-    )
+    if case.recorded is not None:
+        full, demo = begin, case.recorded
+    elif teacher is not None:
+        full = begin
+        goal_of_teacher = case_goal or case.runners["model"].resolve_goal(None)
+        demo = teacher_demonstration(
+            teacher, reference_env, full, goal_of_teacher, seed=seed + i, noise=noise or None
+        )
+    else:
+        full = complete_start(case.behavior, begin, max_distance)
+        demo = reference_demonstration(
+            case.behavior, full, case_goal, reference_env, seed=seed + i, noise=noise
+        )
     extra = dict(case_options(i, full, demo)) if case_options is not None else {}
     push_step = None
     if case.push is not None:
@@ -271,7 +335,7 @@ def _run_case(
         extra["pushes"] = [*extra.get("pushes", []), scheduled]
     ref = np.column_stack([demo["left"], demo["right"]])
     floor = zero_floor(ref, case.scale)
-    floor_motor = zero_floor(ref, case.motor_max)
+    floor_motor = None if case.motor_max is None else zero_floor(ref, case.motor_max)
     scores: dict[str, dict[str, Any]] = {}
     runs: dict[str, tuple[Any, dict[str, np.ndarray]]] = {}
     for name, runner in case.runners.items():
@@ -289,7 +353,9 @@ def _run_case(
             "start": full,
             "goal": trace.goal,
             "success_rate": success_rate(gen, ref, case.scale),
-            "success_rate_motor_max": success_rate(gen, ref, case.motor_max),
+            "success_rate_motor_max": None
+            if case.motor_max is None
+            else success_rate(gen, ref, case.motor_max),
             "zero_floor": floor,
             "zero_floor_motor_max": floor_motor,
             "goal_reached": bool(trace.goal_reached),
@@ -304,6 +370,8 @@ def _run_case(
             "command_jump_ratio": command_jump_ratio(gen, ref),
             # primitive changes of an SBLM, component changes of a CBLM
             "switches": _switches(runner, trace),
+            "final_errors": errors,
+            "path": _path(trace, demo),
         }
         if push_step is not None:
             # the push acts after env step `push_step`; a run ends with one stop step
@@ -316,8 +384,13 @@ def _run_case(
 
 
 def _summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
-    def mean(key: str) -> float:
-        return float(np.mean([c[key] for c in cases]))
+    def mean(key: str) -> float | None:
+        values = [c[key] for c in cases if c.get(key) is not None]
+        return float(np.mean(values)) if values else None
+
+    def median_path(key: str) -> float | None:
+        values = [c["path"][key] for c in cases if c.get("path", {}).get(key) is not None]
+        return float(np.median(values)) if values else None
 
     return {
         "n": len(cases),
@@ -332,6 +405,9 @@ def _summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
         "command_jump_ratio_max": float(max(c["command_jump_ratio"] for c in cases)),
         "switches_mean": mean("switches"),
         "switches_max": int(max(c["switches"] for c in cases)),
+        "path_dtw_median": median_path("dtw"),
+        "path_frechet_median": median_path("frechet"),
+        "path_swept_area_median": median_path("swept_area"),
         **(
             {"pushed": int(sum(c["pushed"] for c in cases))}
             if cases and "pushed" in cases[0]
@@ -385,11 +461,51 @@ def _refused(runner: Any, start: Mapping[str, float], goal: Any, why: str) -> An
     """The trace of a run refused before any motion (the goal was unreachable)."""
     from behavior_hmm.runtime import Trace
 
-    trace = Trace(goal=runner.resolve_goal(goal), start=dict(start), channels=["angle", "distance"])
+    goal_now = runner.resolve_goal(goal)
+    names = [*start, *(c for c in goal_now if c not in start)]
+    trace = Trace(goal=goal_now, start=dict(start), channels=names)
     trace.t.append(0.0)
     trace.commands.append(np.zeros(2))
     trace.component.append("")
     trace.plan_changed.append(False)
-    trace.final_observation = np.array([start["angle"], start["distance"]], dtype=np.float64)
+    trace.final_observation = np.array([start.get(c, np.nan) for c in names], dtype=np.float64)
+    trace.channel_specs = {c: runner.channel_spec(c) for c in goal_now}
     trace.reason = f"unreachable: {why}"
     return trace
+
+
+def _path(trace: Any, demo: Mapping[str, np.ndarray]) -> dict[str, float | None]:
+    """:func:`path_metrics` of a run against its reference, on the goal's channels."""
+    from behavior_hmm.data._channels import channel
+
+    names = [c for c in trace.goal if c in trace.channels and c in demo]
+    if not names or not trace.true_readings:
+        return path_metrics(np.zeros((0, 1)), np.zeros((0, 1)))
+    true = np.asarray(trace.true_readings, dtype=np.float64).reshape(-1, len(trace.channels))
+    generated = true[:, [trace.channels.index(c) for c in names]]
+    reference = np.column_stack([np.asarray(demo[c], dtype=np.float64) for c in names])
+    wraps = [(trace.channel_specs.get(c) or channel(c)).wraps for c in names]
+    return path_metrics(generated, reference, wraps)
+
+
+def _recorded_cases(
+    dataset: Any, model: Any, robot: Robot
+) -> tuple[list[dict[str, float]], list[dict[str, np.ndarray]]]:
+    """Starts and reference columns of a dataset's episodes (``--reference DATASET``)."""
+    goal = model.resolve_goal(None)
+    names = list(robot.start_channels or goal)
+    missing = [c for c in names if c not in dataset.sensor_channels]
+    if missing:
+        raise ConfigError(
+            f"the reference dataset has no {', '.join(missing)} column to start from "
+            f"(start channels: {', '.join(names)})"
+        )
+    columns = ["t", *dataset.sensor_channels, "left", "right"]
+    table = dataset.columns(columns)
+    starts: list[dict[str, float]] = []
+    demos: list[dict[str, np.ndarray]] = []
+    for lo, hi in itertools.pairwise(dataset.offsets):
+        demo = {name: np.array(table[lo:hi, j]) for j, name in enumerate(columns)}
+        starts.append({c: float(demo[c][0]) for c in names})
+        demos.append(demo)
+    return starts, demos

@@ -333,36 +333,40 @@ def _start_channels(base: Any, channels: Sequence[str]) -> tuple[str, ...] | Non
 # -- building an env from what --env names ----------------------------------------------
 
 
-def _load_factory(target: str) -> Any:
-    """``package.module:factory`` or ``path/to/file.py:factory`` -> the callable."""
+def load_factory(target: str, option: str = "--env") -> Any:
+    """``package.module:factory`` or ``path/to/file.py:factory`` -> the callable.
+
+    ``option`` (``--env``, ``--teacher``) names what the user gave in the errors.
+    """
     where, _, attr = target.rpartition(":")
     if not where or not attr.isidentifier():
         raise ConfigError(
-            f"--env {target!r}: expected ID, package.module:factory or file.py:factory"
+            f"{option} {target!r}: expected {'ID, ' if option == '--env' else ''}"
+            "package.module:factory or file.py:factory"
         )
     if where.endswith(".py"):
         path = Path(where)
         if not path.is_file():
-            raise ConfigError(f"--env: no such file {where}")
-        name = f"_behavior_hmm_env_{abs(hash(str(path.resolve())))}"
+            raise ConfigError(f"{option}: no such file {where}")
+        name = f"_behavior_hmm_{option.strip('-')}_{abs(hash(str(path.resolve())))}"
         spec = importlib.util.spec_from_file_location(name, path)
         if spec is None or spec.loader is None:
-            raise ConfigError(f"--env: cannot import {where}")
+            raise ConfigError(f"{option}: cannot import {where}")
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         try:
             spec.loader.exec_module(module)
         except Exception as exc:
             del sys.modules[name]
-            raise ConfigError(f"--env: importing {where} failed: {exc}") from exc
+            raise ConfigError(f"{option}: importing {where} failed: {exc}") from exc
     else:
         try:
             module = importlib.import_module(where)
         except ImportError as exc:
-            raise ConfigError(f"--env: cannot import module {where!r}: {exc}") from exc
+            raise ConfigError(f"{option}: cannot import module {where!r}: {exc}") from exc
     factory = getattr(module, attr, None)
     if not callable(factory):
-        raise ConfigError(f"--env: {where} has no callable {attr!r}")
+        raise ConfigError(f"{option}: {where} has no callable {attr!r}")
     return factory
 
 
@@ -390,7 +394,7 @@ def make_robot_env(target: str, kwargs: Mapping[str, Any] | None = None) -> Any:
     if ":" in target and (target.rpartition(":")[0].endswith(".py") or "/" not in target):
         if target in gymnasium.registry:
             return gymnasium.make(target, **options)
-        factory = _load_factory(target)
+        factory = load_factory(target)
         try:
             return factory(**options)
         except TypeError as exc:

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from behavior_hmm.data import SENSOR_CHANNELS, ChannelSpec, Dataset
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.teach._behaviors import Start, behavior_spec
 from behavior_hmm.teach._demonstrator import DISTURBED_CHANNELS, Teacher, TeacherConfig
+from behavior_hmm.teach._external import DEFAULT_TEACHER_STEPS
 from behavior_hmm.teach._grids import check_start, default_starts
 
 Progress = Callable[[int, int], None]
@@ -166,4 +167,120 @@ def collect(
         metadata["corrective_episodes"] = list(range(len(full), len(runs)))
     if derived:  # a robot without velocity sensors: estimated from its positions
         metadata["derived"] = derived
+    return Dataset.from_episodes(episodes, metadata=metadata)
+
+
+def collect_with_teacher(
+    name: str,
+    env: Any,
+    teacher: Any,
+    goal: Mapping[str, float],
+    starts: Sequence[Mapping[str, float]],
+    *,
+    seed: int = 0,
+    noise: float = 0.0,
+    env_name: str | None = None,
+    teacher_name: str | None = None,
+    progress: Progress | None = None,
+    max_steps: int = DEFAULT_TEACHER_STEPS,
+) -> Dataset:
+    """Demonstrate with any teacher (``--teacher``) from every start; the dataset.
+
+    Parameters
+    ----------
+    name
+        What the behavior is called (free text: recorded as the dataset's ``behavior``).
+    env
+        An env that meets the robot contract (docs/robots.md, version 2).
+    teacher
+        ``reset(start, goal)`` and ``step(observation, info) -> (command, done)``
+        (:mod:`behavior_hmm.teach._external`).
+    goal
+        ``{channel: value}`` the teacher drives to; recorded as the dataset's goal.
+    starts
+        ``{channel: value}`` per demonstration, on the robot's start channels.
+    seed
+        Episode ``i`` resets the env with seed ``seed + i``.
+    noise
+        Sensor noise (the env's ``noise`` reset option), 0 for none.
+    env_name, teacher_name
+        How the env and the teacher were named, recorded in the metadata.
+    progress
+        Called as ``progress(done, total)`` after each episode.
+    max_steps
+        A demonstration the teacher has not ended by then is an error.
+    """
+    from behavior_hmm.data import CHANNELS
+    from behavior_hmm.runtime import Robot
+    from behavior_hmm.teach._external import check_teacher, teacher_demonstration
+
+    if not isinstance(name, str) or not name.strip():
+        raise ConfigError("a behavior collected with a teacher needs a name")
+    if noise < 0:
+        raise ConfigError(f"--noise must be >= 0, got {noise}")
+    if seed < 0:
+        raise ConfigError(f"--seed must be >= 0, got {seed}")
+    if not starts:
+        raise ConfigError("no starts to collect")
+    check_teacher(teacher, teacher_name or "the teacher")
+    robot = Robot(env)
+    contract = [c for c in SENSOR_CHANNELS if c in robot.channels]
+    if contract and len(contract) != len(SENSOR_CHANNELS):
+        lacking = [c for c in SENSOR_CHANNELS if c not in robot.channels]
+        raise ConfigError(
+            f"the robot has {', '.join(contract)} but not {', '.join(lacking)}: a dataset holds "
+            "all four sensors of the data contract or none (declare other names for yours)"
+        )
+    ranges = robot.ranges
+    own = [c for c in robot.channels if c not in SENSOR_CHANNELS]
+    undeclared = [c for c in own if c not in robot.channel_specs and c not in CHANNELS]
+    if undeclared:
+        raise ConfigError(
+            f"the robot's channel(s) {', '.join(undeclared)} are not declared: list them in "
+            'env.unwrapped.sensor_channels ({"name", "unit", "range"}, docs/robots.md)'
+        )
+    specs = [robot.channel_specs.get(c) or CHANNELS[c] for c in own]
+    wanted = {str(k): float(v) for k, v in goal.items()}
+    known = {s.name: s for s in specs} | {c: CHANNELS[c] for c in contract}
+    for channel, _ in wanted.items():
+        spec = known.get(channel)
+        if spec is None or spec.tolerance is None:
+            raise ConfigError(
+                f"goal channel '{channel}' is not a channel of the robot with a tolerance "
+                f"(its channels: {', '.join(robot.channels)})"
+            )
+    episodes = []
+    for i, start in enumerate(starts):
+        columns: dict[str, Any] = dict(
+            teacher_demonstration(
+                teacher,
+                robot,
+                start,
+                wanted,
+                seed=seed + i,
+                noise=noise or None,
+                max_steps=max_steps,
+                name=teacher_name or "the teacher",
+            )
+        )
+        columns["episode"] = i
+        episodes.append(columns)
+        if progress is not None:
+            progress(i + 1, len(starts))
+    metadata: dict[str, Any] = {
+        "behavior": name,
+        "goal": wanted,
+        "simulator": env_name or robot.name,
+        "env": env_name or robot.name,
+        "control_period": robot.control_period,
+        "ranges": {c: list(ranges[c]) for c in robot.channels if c in ranges},
+        "seed": seed,
+        "noise": noise,
+        "teacher": {"name": teacher_name or type(teacher).__name__},
+        "starts": [dict(s) for s in starts],
+    }
+    if specs:
+        metadata["channels"] = [spec.to_metadata() for spec in specs]
+    if robot.derived:
+        metadata["derived"] = list(robot.derived)
     return Dataset.from_episodes(episodes, metadata=metadata)
