@@ -317,7 +317,7 @@ def test_not_utf8(tmp_path: Path) -> None:
 def test_nul_bytes(tmp_path: Path) -> None:
     path = tmp_path / "log.csv"
     path.write_bytes(HEADER.encode() + b"\n0,0\x00,1\n")
-    _expect(path, "not a valid CSV|cells")
+    _expect(path, "not a text file \\(NUL byte on line 2\\)")
 
 
 def test_parquet_given_as_csv(tmp_path: Path, small_ds: Dataset) -> None:

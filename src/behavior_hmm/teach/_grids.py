@@ -4,14 +4,23 @@ from __future__ import annotations
 
 import csv
 import difflib
+import io
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
+from behavior_hmm._safe_read import MAX_SIDE_FILE_BYTES, read_text
 from behavior_hmm.data import ARENA_MAX_DISTANCE
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.teach._behaviors import Start, behavior_spec
+
+#: Characters of a cell quoted in an error message (then ``...``).
+_SHOWN_CHARS = 80
+
+
+def _cell(text: str) -> str:
+    return text if len(text) <= _SHOWN_CHARS else text[:_SHOWN_CHARS] + "..."
 
 
 def default_starts(behavior: str) -> list[Start]:
@@ -42,6 +51,10 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
     ``max_distance`` (m): the farthest start allowed (our arena's by default; another
     robot's, ``--env``, may be larger).
 
+    The file is read as every user file is (:func:`behavior_hmm._safe_read.read_text`):
+    a regular file (a FIFO or a device is refused unopened) of UTF-8 text, at most 4 MiB,
+    lines of at most 1 MiB.
+
     Raises
     ------
     DatasetError
@@ -51,8 +64,9 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
     from behavior_hmm.errors import DatasetError
 
     file = str(path)
+    text = read_text(path, limit=MAX_SIDE_FILE_BYTES, file=file)
     try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
+        with io.StringIO(text, newline="") as fh:
             reader = csv.DictReader(fh)
             fields = [f.strip() for f in (reader.fieldnames or [])]
             allowed = {"angle", "distance", "goal_angle", "goal_distance"}
@@ -65,7 +79,7 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
                 raise DatasetError(
                     "column given twice (each of angle, distance, goal_<channel> at most once)",
                     file=file,
-                    field=repeated[0],
+                    field=_cell(repeated[0]),
                 )
             unknown = [f for f in fields if f not in allowed]
             if unknown:
@@ -74,7 +88,7 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
                 raise DatasetError(
                     "unknown column (expected angle, distance, goal_angle, goal_distance)" + hint,
                     file=file,
-                    field=unknown[0],
+                    field=_cell(unknown[0]),
                 )
             if "angle" not in fields and "distance" not in fields:
                 raise DatasetError("a starts file needs a column angle and/or distance", file=file)
@@ -85,16 +99,19 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
                 for key, raw in row.items():
                     if key is None:
                         raise DatasetError("more values than columns", file=file, row=line)
-                    text = (raw or "").strip()
+                    cell = (raw or "").strip()
                     try:
-                        value = float(text)
+                        value = float(cell)
                     except ValueError:
                         raise DatasetError(
-                            f"not a number: '{text}'", file=file, row=line, field=key.strip()
+                            f"not a number: '{_cell(cell)}'", file=file, row=line, field=key.strip()
                         ) from None
                     if not np.isfinite(value):
                         raise DatasetError(
-                            f"not a finite number: '{text}'", file=file, row=line, field=key.strip()
+                            f"not a finite number: '{_cell(cell)}'",
+                            file=file,
+                            row=line,
+                            field=key.strip(),
                         )
                     start[key.strip()] = value
                 try:
@@ -102,12 +119,9 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
                 except ConfigError as err:
                     raise DatasetError(str(err), file=file, row=line) from None
                 starts.append(start)
-    except OSError as err:
-        raise DatasetError(f"cannot read starts file: {err.strerror}", file=file) from None
-    except UnicodeDecodeError:
-        raise DatasetError("not a UTF-8 text file", file=file) from None
-    except csv.Error as err:  # e.g. a NUL byte or a cell beyond the csv module's limit
-        raise DatasetError(f"not a readable CSV file ({err})", file=file) from None
+    except csv.Error as err:  # e.g. a cell beyond the csv module's limit
+        reason = " ".join(str(err).split())[: 2 * _SHOWN_CHARS]
+        raise DatasetError(f"not a readable CSV file ({reason})", file=file) from None
     if not starts:
         raise DatasetError("no starts in file", file=file)
     return starts
