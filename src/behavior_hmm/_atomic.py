@@ -4,6 +4,11 @@ Inside :func:`all_or_none` the writes of a command are staged instead: each land
 temporary file, and only when the block ends without an error are they all moved into
 place; on any error (or an interrupt) every temporary file is removed and the old files
 stay as they were.
+
+The command line also learns from here when a command's result is complete: the output
+files it declared (:func:`expect_outputs`, called by ``_paths.check_outputs``) are all in
+place, or the command has returned (:func:`finish_command`). From then on an interrupt
+changes nothing on disk, and :func:`outputs_complete` tells the interrupt handler to exit 0.
 """
 
 from __future__ import annotations
@@ -13,8 +18,9 @@ import contextvars
 import os
 import secrets
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
+from typing import Any
 
 #: Writes staged by the innermost :func:`all_or_none` block: (temporary file, target).
 _STAGED: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
@@ -54,8 +60,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         os.chmod(tmp, _target_mode(target))
         staged = _STAGED.get()
         if staged is None:
-            os.replace(tmp, target)
-            _LIVE.discard(tmp)
+            with _signals_deferred():  # in place and counted as such, or neither
+                os.replace(tmp, target)
+                _LIVE.discard(tmp)
+                _placed([target])
         else:
             _stage(staged, tmp, target)
             keep = True
@@ -85,7 +93,10 @@ def all_or_none() -> Iterator[None]:
             yield
         finally:
             _STAGED.reset(token)
-        _commit(staged)
+        with _signals_deferred():  # every target moved and counted, or none moved
+            targets = [target for _, target in staged]
+            _commit(staged)
+            _placed(targets)
     finally:
         for tmp, _ in staged:  # whatever was not moved into place
             _remove(tmp)
@@ -157,6 +168,55 @@ def _remove(path: Path) -> None:
     _LIVE.discard(path)
 
 
+# --------------------------------------------------------- a command's outputs
+
+
+class _Outputs:
+    """What the running command declared it writes, and what is in place so far."""
+
+    def __init__(self) -> None:
+        self.missing: set[str] = set()  # declared output files not yet moved into place
+        self.files = False  # it declared at least one output file
+        self.folders = False  # it declared an output folder (files unknown in advance)
+        self.complete = False
+
+
+_OUTPUTS = _Outputs()
+
+
+def begin_command() -> None:
+    """Forget the outputs of an earlier command (the command line calls it per command)."""
+    global _OUTPUTS
+    _OUTPUTS = _Outputs()
+
+
+def expect_outputs(files: Collection[str | os.PathLike[str]], *, folders: bool = False) -> None:
+    """Declare the output files of the running command (``folders``: it also writes a
+    folder of results, whose files are not known in advance). Declarations add up."""
+    state = _OUTPUTS
+    state.missing.update(os.path.abspath(f) for f in files)
+    state.files = state.files or bool(files)
+    state.folders = state.folders or folders
+
+
+def finish_command() -> None:
+    """The command has returned: whatever it wrote is complete."""
+    _OUTPUTS.complete = True
+
+
+def outputs_complete() -> bool:
+    """True once the running command's result is complete: every declared output file is
+    in place (and no output folder was declared), or the command has returned."""
+    return _OUTPUTS.complete
+
+
+def _placed(targets: Collection[Path]) -> None:
+    state = _OUTPUTS
+    state.missing.difference_update(os.path.abspath(t) for t in targets)
+    if state.files and not state.folders and not state.missing:
+        state.complete = True
+
+
 #: Temporary files created and not yet moved into place or removed (see remove_leftovers).
 _LIVE: set[Path] = set()
 #: (folder, name) of every target this process began to write.
@@ -179,20 +239,42 @@ def remove_leftovers() -> None:
 
 @contextlib.contextmanager
 def _signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block ends (POSIX, main thread; else a no-op)."""
+    """Hold SIGINT and SIGTERM until the block ends (main thread; else a no-op).
+
+    The Python-level handlers are swapped for one that only records the signal, and
+    the held signal is handled (``KeyboardInterrupt`` raised, ...) when the block ends.
+    Blocking the signal in this thread alone would not do: the kernel hands a
+    process-wide signal to any thread that does not block it (a progress bar's, a BLAS
+    worker), and Python then runs the handler in this thread, inside the block.
+    """
     import signal
     import threading
 
-    mask = getattr(signal, "pthread_sigmask", None)
-    if mask is None or threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    held = {signal.SIGINT, signal.SIGTERM}
-    previous = mask(signal.SIG_BLOCK, held)
+    held: list[int] = []
+
+    def hold(signum: int, frame: object) -> None:
+        held.append(signum)
+
+    saved: dict[int, Any] = {}
+    for held_signal in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(held_signal)
+        if handler is not None:  # None: set outside Python, left alone
+            saved[int(held_signal)] = handler
+            signal.signal(held_signal, hold)
     try:
         yield
     finally:
-        mask(signal.SIG_SETMASK, previous)
+        for signum, handler in saved.items():
+            signal.signal(signum, handler)
+        for signum in dict.fromkeys(held):
+            handler = saved[signum]
+            if callable(handler):
+                handler(signum, None)  # e.g. KeyboardInterrupt, raised here
+            elif handler == signal.SIG_DFL:
+                signal.raise_signal(signum)
 
 
 def _renamed(err: OSError, tmp: Path | None, target: Path) -> OSError:

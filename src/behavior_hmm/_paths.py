@@ -1,10 +1,11 @@
 """Checks of a command's path arguments, run before any work (DESIGN §4, bad input).
 
-Every command hands :func:`check_outputs` the files it reads and the paths it will
-write: no output may name an input (symlinks and hard links included), no two outputs
-may share a path, and every output must be writable (the path is not a folder; its
-folder is writable, or missing and creatable: the nearest existing parent is a writable
-folder). A refusal is one :class:`~behavior_hmm.errors.ConfigError`.
+Every command hands :func:`check_outputs` the files and folders it reads and the paths
+it will write: no output may name an input (symlinks and hard links included) or lie
+inside an input folder, no two outputs may share a path, and every output must be
+writable (the path is not a folder; its folder is writable, or missing and creatable:
+the nearest existing parent is a writable folder). A refusal is one
+:class:`~behavior_hmm.errors.ConfigError`.
 """
 
 from __future__ import annotations
@@ -74,6 +75,18 @@ def check_outputs(
 ) -> None:
     """Refuse, before any work, outputs that would destroy an input or cannot be written.
 
+    An input that is a folder (a LeRobot dataset, a ROS 2 bag), or a file the reader
+    takes its whole folder for (a ROS 2 bag's ``.db3``, ``.mcap`` or ``metadata.yaml``),
+    makes that folder off limits: no output file may lie inside it at any depth, and no
+    output folder may be it, lie inside it or contain it (symlinks resolved, and the
+    same folder under another name caught by its inode). An output folder that merely
+    holds an input *file* is allowed: the commands write fixed names there
+    (``results.json``, ...) or need it new or empty (``export-lerobot``).
+
+    The output files and folders that pass are declared to :mod:`behavior_hmm._atomic`
+    (:func:`~behavior_hmm._atomic.expect_outputs`): once those files are all in place
+    the command's result is complete, and an interrupt after that exits 0.
+
     Parameters
     ----------
     inputs
@@ -92,6 +105,8 @@ def check_outputs(
     ConfigError
         One line naming the option and path at fault.
     """
+    from behavior_hmm._atomic import expect_outputs
+
     named_inputs = [(label, Path(p)) for label, value in inputs.items() for p in _as_list(value)]
     files = [(label, Path(p)) for label, p in outputs.items() if p is not None]
     dirs = [(label, Path(p)) for label, p in (folders or {}).items() if p is not None]
@@ -102,6 +117,14 @@ def check_outputs(
                     f"{option} {path} would overwrite the input {label} {source}; "
                     "give another file name"
                 )
+    read_folders = [
+        (label, source, folder)
+        for label, source in named_inputs
+        if (folder := _folder_read(source)) is not None
+    ]
+    for option, path in files + dirs:
+        for label, source, folder in read_folders:
+            _check_outside(option, path, label, source, folder, is_folder=(option, path) in dirs)
     for k, (option, path) in enumerate(files):
         for other, other_path in files[:k]:
             if same_file(path, other_path):
@@ -115,6 +138,63 @@ def check_outputs(
         _check_writable_file(option, path)
     for option, path in dirs:
         _check_writable_folder(option, path)
+    expect_outputs([path for _, path in files], folders=bool(dirs))
+
+
+#: Files of a ROS 2 bag: given one, the bag reader's input is its whole folder.
+_BAG_FILE_SUFFIXES = frozenset({".db3", ".mcap", ".yaml", ".zstd"})
+
+
+def _folder_read(source: Path) -> Path | None:
+    """The folder an input reads from: the input itself when it is a folder, the folder
+    of a ROS 2 bag's file (beside ``metadata.yaml``); None for any other input."""
+    try:
+        if source.is_dir():
+            return source
+        if (
+            source.suffix.lower() in _BAG_FILE_SUFFIXES
+            and (source.parent / "metadata.yaml").is_file()
+        ):
+            return source.parent
+    except OSError:
+        pass
+    return None
+
+
+def _check_outside(
+    option: str, path: Path, label: str, source: Path, folder: Path, *, is_folder: bool
+) -> None:
+    """Refuse an output (file or folder) that is, lies inside or (a folder) contains the
+    input folder ``folder`` (``source`` as given, or the file it was found from)."""
+    named = f"the input {label} {source}"
+    if folder is not source:
+        named = f"the folder {folder} of the input {label} {source}"
+    fix = "write outputs outside the inputs"
+    if _inside(path, folder):
+        relation = "is" if _inside(folder, path) else "is inside"
+        raise ConfigError(f"{option} {path} {relation} {named}; {fix}")
+    if is_folder and _inside(folder, path):
+        raise ConfigError(f"{option} {path} contains {named}; {fix}")
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """True when ``path`` is ``folder`` or lies inside it at any depth: compared after
+    resolving symlinks, then by inode for each existing ancestor (the same folder under
+    another name: a bind mount, a case-insensitive file system)."""
+    try:
+        target = Path(os.path.abspath(path)).resolve()
+        root = Path(os.path.abspath(folder)).resolve()
+    except (OSError, RuntimeError):  # a symlink loop: nothing to compare
+        return False
+    if target == root or root in target.parents:
+        return True
+    for ancestor in (target, *target.parents):
+        try:
+            if os.path.samefile(ancestor, root):
+                return True
+        except (OSError, ValueError):  # missing yet (created by the write): look higher
+            continue
+    return False
 
 
 def _as_list(value: InputPaths) -> list[Path]:

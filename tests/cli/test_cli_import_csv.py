@@ -199,7 +199,9 @@ def test_bad_options_are_refused(
 def test_missing_log_and_overwriting_the_log(invoke: Invoke, tmp_path: Path) -> None:
     out = tmp_path / "out.parquet"
     assert_user_error(invoke(["import-csv", tmp_path / "nope.csv", "-o", out]), "nope.csv")
-    assert_user_error(invoke(["import-csv", tmp_path, "-o", out]), "directory")
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    assert_user_error(invoke(["import-csv", folder, "-o", out]), "is a directory")
     log = write_csv(tmp_path / "log.csv", CSV_HEADER, log_rows())
     before = digest(log)
     assert_user_error(invoke(["import-csv", log, "-o", log]), "overwrite")

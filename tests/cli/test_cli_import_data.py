@@ -241,7 +241,9 @@ def test_generated_traces_export_too(
 
 def test_import_lerobot_errors(invoke: Invoke, tmp_path: Path, turn_demos: Dataset) -> None:
     out = tmp_path / "out.parquet"
-    assert_user_error(invoke(["import-lerobot", tmp_path, "-o", out]), "no meta/info.json")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert_user_error(invoke(["import-lerobot", empty, "-o", out]), "no meta/info.json")
     folder = data.export_lerobot(turn_demos, tmp_path / "lr")
     line = assert_user_error(
         invoke(["import-lerobot", folder, "--map", "angle=observation.state:bearing", "-o", out]),

@@ -8,13 +8,17 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import inspect
 import logging
 import math
+import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
 import typer
+from typer.core import TyperGroup
+from typer.exceptions import TyperException
 
 from behavior_hmm.data._channels import ARENA_MAX_DISTANCE
 from behavior_hmm.errors import BehaviorHMMError, ConfigError
@@ -90,11 +94,155 @@ def user_errors(func: F) -> F:
             where = f"{err.filename}: " if err.filename else ""
             typer.echo(f"error: {where}{err.strerror or err}", err=True)
             raise typer.Exit(code=2) from None
-        except KeyboardInterrupt:
-            typer.echo("interrupted", err=True)
-            raise typer.Exit(code=130) from None
+        except KeyboardInterrupt as err:  # Ctrl-C, or SIGTERM (main turns it into one)
+            from behavior_hmm.cli import interrupt_exit_code
+
+            raise typer.Exit(code=interrupt_exit_code(err)) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+# ------------------------------------------------------------ the command line
+
+
+class CommandLine(TyperGroup):
+    """The root group of ``behavior-hmm`` (``typer.Typer(cls=CommandLine)``).
+
+    - every usage error (a wrong-typed value, a missing argument, an unknown option or
+      command) is one line ``error: ...`` on stderr with exit code 2: no usage box;
+    - every command's help paragraphs are re-flowed (:func:`reflow_help`), so the
+      docstrings' hard line breaks never show in ``--help``;
+    - an interrupt anywhere in a command is one line (:func:`user_errors` catches those
+      inside it), and the command's result counts as complete once it returns
+      (:func:`behavior_hmm._atomic.finish_command`).
+    """
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        _reflow_tree(self)
+
+    def make_context(
+        self, info_name: str | None, args: list[str], parent: Any = None, **extra: Any
+    ) -> Any:
+        with _one_line_usage_errors():
+            return super().make_context(info_name, args, parent=parent, **extra)
+
+    def invoke(self, ctx: Any) -> Any:
+        from behavior_hmm._atomic import begin_command, finish_command
+
+        begin_command()
+        try:
+            with _one_line_usage_errors():
+                result = super().invoke(ctx)
+        except KeyboardInterrupt as err:  # outside any command's own wrapper
+            from behavior_hmm.cli import interrupt_exit_code
+
+            raise typer.Exit(code=interrupt_exit_code(err)) from None
+        finish_command()
+        return result
+
+
+@contextlib.contextmanager
+def _one_line_usage_errors() -> Iterator[None]:
+    """Print a usage error (typer's ``ClickException``) as one ``error: `` line, exit 2."""
+    try:
+        yield
+    except TyperException as err:
+        if type(err).__name__ == "NoArgsIsHelpError":  # the help is already printed
+            raise
+        typer.echo(f"error: {usage_error_line(err)}", err=True)
+        raise typer.Exit(code=getattr(err, "exit_code", 2)) from None
+
+
+#: Words for pydantic's type errors: "'abc' is not a valid integer".
+_EXPECTED = {
+    "int_parsing": "a valid integer",
+    "int_from_float": "a whole number",
+    "float_parsing": "a valid number",
+    "bool_parsing": "true or false",
+    "path_type": "a path",
+}
+
+
+def usage_error_line(err: TyperException) -> str:
+    """One line for a usage error, without click's capitals and full stops, e.g.
+    ``--seed: 'abc' is not a valid integer`` or ``missing argument BEHAVIOR``."""
+    param = getattr(err, "param", None)
+    hint = _param_hint(param) if param is not None else None
+    explicit = getattr(err, "param_hint", None)
+    if explicit is not None:
+        hint = explicit if isinstance(explicit, str) else "/".join(explicit)
+    name = type(err).__name__
+    if name == "NoSuchOption" and getattr(err, "possibilities", None):
+        options = " or ".join(sorted(err.possibilities))  # type: ignore[attr-defined]
+        return f"{_sentence(err.message)}; did you mean {options}?"
+    if name == "MissingParameter":
+        kind = getattr(err, "param_type", None) or getattr(param, "param_type_name", "parameter")
+        return f"missing {kind} {hint}" if hint else f"missing {kind}"
+    if isinstance(err, typer.BadParameter):
+        cause: Any = err.__cause__  # typer's values are checked by pydantic
+        details = cause.errors() if hasattr(cause, "errors") else None
+        if details:
+            first = details[0]
+            expected = _EXPECTED.get(str(first.get("type")))
+            value = first.get("input")
+            what = (
+                f"{value!r} is not {expected}"
+                if expected is not None
+                else f"{value!r}: {_sentence(str(first.get('msg', err.message)))}"
+            )
+        else:
+            what = _sentence(err.message)
+        return f"{hint}: {what}" if hint else what
+    return _sentence(err.format_message())
+
+
+def _param_hint(param: Any) -> str:
+    """``--seed``, ``-o/--out`` or the argument's name in capitals (``BEHAVIOR``)."""
+    if getattr(param, "param_type_name", "") == "argument":
+        return str(param.name or "").upper()
+    opts = [*getattr(param, "opts", ()), *getattr(param, "secondary_opts", ())]
+    return "/".join(opts) or str(getattr(param, "name", "") or "")
+
+
+def _sentence(text: str) -> str:
+    """Click's message as our one-line style: one line, lower-case start, no final stop."""
+    text = " ".join(text.split()).rstrip(".")
+    return text[:1].lower() + text[1:] if text[1:2].islower() else text
+
+
+# ----------------------------------------------------------------- help text
+
+
+def reflow_help(text: str | None) -> str | None:
+    """A docstring as help text: each paragraph (between blank lines) on one line, so the
+    help re-wraps it to the terminal instead of keeping the source's line breaks.
+
+    Left as written: a paragraph starting with click's ``\\b`` marker, one whose later
+    lines are indented, bullets (``-``, ``*``, ``•``) or command lines
+    (``behavior-hmm ...``, ``$ ...``), and anything after a form feed (``\\f``).
+    """
+    if not text:
+        return text
+    body, stop, rest = inspect.cleandoc(text).partition("\f")
+    paragraphs = re.split(r"\n[ \t]*\n", body.strip("\n"))
+    flowed = [p if _laid_out(p) else " ".join(p.split()) for p in paragraphs]
+    return "\n\n".join(flowed) + stop + rest
+
+
+_LAID_OUT_LINE = re.compile(r"(\s|[-*•] |behavior-hmm |\$ )")
+
+
+def _laid_out(paragraph: str) -> bool:
+    lines = paragraph.split("\n")
+    return paragraph.startswith("\b") or any(_LAID_OUT_LINE.match(line) for line in lines[1:])
+
+
+def _reflow_tree(command: Any) -> None:
+    """Re-flow the help of ``command`` and of every command below it."""
+    command.help = reflow_help(command.help)
+    for sub in getattr(command, "commands", {}).values():
+        _reflow_tree(sub)
 
 
 # ------------------------------------------------------------------ progress bars
@@ -227,6 +375,19 @@ EnvKwargsOption = Annotated[
     typer.Option(
         "--env-kwargs", help="JSON object passed to the --env factory, e.g. '{\"mass\": 2}'"
     ),
+]
+TeacherOption = Annotated[
+    str | None,
+    typer.Option(
+        "--teacher",
+        help="Your own teacher instead of ours: path/to/file.py:factory or "
+        "package.module:factory, called as factory(env, **kwargs); it offers reset(start, "
+        "goal) and step(observation, info) -> (command, done) (docs/robots.md)",
+    ),
+]
+TeacherKwargsOption = Annotated[
+    str | None,
+    typer.Option("--teacher-kwargs", help="JSON object passed to the --teacher factory"),
 ]
 #: How videos are drawn (``generate --video``, ``evaluate --videos``).
 VideoBackendOption = Annotated[
@@ -372,10 +533,12 @@ def parse_assignments(
 
 def parse_start(text: str, arena: bool = True) -> dict[str, float]:
     """A ``--start``: angle (deg) and/or distance (m), inside our arena unless ``arena``
-    is False (another robot's, ``--env``) (:class:`ConfigError` if not)."""
+    is False (another robot's, ``--env``: any of its channels) (:class:`ConfigError` if
+    not)."""
     from behavior_hmm.teach import check_start
 
-    start = parse_assignments(text, "--start", START_KEYS)
+    # another robot (--env) starts on any of its channels; the robot refuses the others
+    start = parse_assignments(text, "--start", START_KEYS if arena else None)
     check_start(start, ARENA_MAX_DISTANCE if arena else math.inf)
     return start
 
