@@ -289,7 +289,8 @@ def load_toml(
     check_nesting(text, file=where, toml=True, error=error)
     try:
         return tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, RecursionError) as exc:
+    except (tomllib.TOMLDecodeError, RecursionError, ValueError) as exc:  # ValueError: an
+        # integer of more than 4,300 digits
         reason = " ".join(str(exc).split())[:160]
         raise error(f"not valid TOML ({reason})", where) from None
 

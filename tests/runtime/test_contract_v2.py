@@ -16,6 +16,7 @@ demonstrations, with path metrics on the goal channels beside the thesis's score
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from pathlib import Path
@@ -244,3 +245,54 @@ def test_evaluation_against_the_teacher_and_against_recordings(
 def test_a_model_without_a_teacher_of_ours_needs_one(reach: SBLM) -> None:
     with pytest.raises(ConfigError, match=r"has no teacher of ours.*--teacher.*--reference"):
         evaluate_model(reach, [{"x": 0.3, "y": 0.0}], sim=None, env=make())
+
+
+@pytest.mark.slow
+def test_collect_train_generate_evaluate_through_the_cli(tmp_path: Path) -> None:
+    """The whole loop on a robot that is not wheels, through the command line only."""
+    from typer.testing import CliRunner
+
+    from behavior_hmm.cli import app
+
+    here = Path(__file__)
+    env, tutor = f"{here}:make", f"{here}:teacher"
+    starts = tmp_path / "starts.csv"
+    starts.write_text("x,y\n" + "".join(f"{s['x']},{s['y']}\n" for s in TRAIN_STARTS))
+    data, model = tmp_path / "reach.parquet", tmp_path / "reach.bhmm"
+    runner = CliRunner()
+
+    def cli(*args: object) -> Any:
+        out = runner.invoke(app, [str(a) for a in args])
+        assert out.exit_code == 0, out.output
+        return out
+
+    cli(
+        "collect",
+        "reach",
+        "--env",
+        env,
+        "--teacher",
+        tutor,
+        "--teacher-kwargs",
+        '{"seconds_per_m": 6.0}',
+        "--starts",
+        starts,
+        "--goal",
+        "x=0,y=0",
+        "-o",
+        data,
+    )
+    cli("train", "simple", data, "--inputs", "x,y", "-o", model)
+    out = cli("generate", model, "--env", env, "--start", "x=0.45,y=-0.25", "--goal", "x=0,y=0")
+    summary = json.loads(out.stdout.splitlines()[0])
+    assert summary["goal_reached"] and max(summary["final_errors"].values()) <= 0.01
+    held_out = tmp_path / "held_out.csv"
+    held_out.write_text("x,y\n" + "".join(f"{x},{y}\n" for x, y in HELD_OUT))
+    report = tmp_path / "eval.json"
+    cli("evaluate", model, "--env", env, "--teacher", tutor, "--starts", held_out, "--json", report)
+    result = json.loads(report.read_text())
+    assert result["goal_reached"] == len(HELD_OUT) and result["reference"] == "teacher"
+    assert result["path_frechet_median"] is not None
+    recorded = tmp_path / "recorded.json"
+    cli("evaluate", model, "--env", env, "--reference", data, "--json", recorded)
+    assert json.loads(recorded.read_text())["n"] == len(TRAIN_STARTS)

@@ -36,12 +36,16 @@ from behavior_hmm.cli._common import (
     NoiseOption,
     ParquetOut,
     SimOption,
+    TeacherKwargsOption,
+    TeacherOption,
     check_noise,
     check_sim,
     collect_with_progress,
     load_model,
     log,
     open_env,
+    parse_assignments,
+    progress,
     user_errors,
     write_json,
 )
@@ -117,7 +121,11 @@ def max_noise() -> float:
 @user_errors
 def collect(
     behavior: Annotated[
-        str, typer.Argument(help="turn, approach, retreat, turn-approach or position")
+        str,
+        typer.Argument(
+            help="turn, approach, retreat, turn-approach or position; with --teacher, any "
+            "name for your behavior"
+        ),
     ],
     out: ParquetOut,
     starts: Annotated[
@@ -149,8 +157,21 @@ def collect(
             "(default: behavior_hmm.teach.DEFAULT_CORRECTION_NOISE)"
         ),
     ] = None,
+    teacher: TeacherOption = None,
+    teacher_kwargs: TeacherKwargsOption = None,
+    goal: Annotated[
+        str | None,
+        typer.Option(
+            help="With --teacher: the goal it drives to, CHANNEL=VALUE[,CHANNEL=VALUE] on "
+            "channels of the robot that have a tolerance"
+        ),
+    ] = None,
 ) -> None:
-    """Record s-curve demonstrations of a behavior into a Parquet dataset.
+    """Record demonstrations of a behavior into a Parquet dataset.
+
+    Our s-curve teacher demonstrates the built-in behaviors; --teacher names your own
+    (path/to/file.py:factory or package.module:factory, called as factory(env, **kwargs)
+    with --teacher-kwargs JSON), which drives --env from each --starts row to --goal.
 
     Everything is checked before the first episode runs; on any error nothing is
     written and an existing OUT is left as it was. With --corrections K each start is
@@ -162,6 +183,14 @@ def collect(
     """
     import math
 
+    if teacher is not None:
+        _collect_with_teacher(
+            behavior, out, starts, env, env_kwargs, teacher, teacher_kwargs, goal, seed, noise
+        )
+        return
+    for option, value in (("--teacher-kwargs", teacher_kwargs), ("--goal", goal)):
+        if value is not None:
+            raise ConfigError(f"{option} needs --teacher (our teacher knows its goals)")
     from behavior_hmm import data
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.errors import DatasetError
@@ -224,6 +253,61 @@ def collect(
             row=err.row,
             field=err.field,
         ) from None
+    data.write(dataset, out)
+    typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
+
+
+def _collect_with_teacher(
+    name: str,
+    out: Path,
+    starts: Path | None,
+    env: str | None,
+    env_kwargs: str | None,
+    teacher: str,
+    teacher_kwargs: str | None,
+    goal: str | None,
+    seed: int,
+    noise: float,
+) -> None:
+    """``collect NAME --teacher T --env ENV --starts CSV --goal ch=v -o OUT``."""
+    import math
+
+    from behavior_hmm import data
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.runtime import Robot, parse_env_kwargs
+    from behavior_hmm.teach import read_starts
+    from behavior_hmm.teach._collect import collect_with_teacher
+    from behavior_hmm.teach._external import load_teacher
+
+    if env is None:
+        raise ConfigError("--teacher needs --env (the robot your teacher drives)")
+    if starts is None:
+        raise ConfigError("--teacher needs --starts (a CSV with a column per start channel)")
+    if goal is None:
+        raise ConfigError("--teacher needs --goal, e.g. --goal x=0,y=0")
+    check_noise(noise)
+    if seed < 0:
+        raise ConfigError(f"--seed must be >= 0, got {seed}")
+    check_outputs({"--starts": starts}, {"-o": out})
+    target = parse_assignments(goal, "--goal")
+    made, env_name = open_env("mujoco", env, env_kwargs)
+    robot = Robot(made)
+    chosen = read_starts(starts, math.inf, channels=robot.start_channels or robot.channels)
+    tutor = load_teacher(teacher, made, parse_env_kwargs(teacher_kwargs, "--teacher-kwargs"))
+    with progress() as bar:
+        task = bar.add_task(f"collect {name} ({env_name})", total=len(chosen))
+        dataset = collect_with_teacher(
+            name,
+            robot,
+            tutor,
+            target,
+            chosen,
+            seed=seed,
+            noise=noise,
+            env_name=env_name,
+            teacher_name=teacher,
+            progress=lambda done, total: bar.update(task, completed=done, total=total),
+        )
     data.write(dataset, out)
     typer.echo(f"wrote {out}: {len(dataset)} episodes, {dataset.n_samples} rows")
 

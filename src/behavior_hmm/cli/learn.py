@@ -33,6 +33,8 @@ from behavior_hmm.cli._common import (
     SeedOption,
     SetOption,
     SimOption,
+    TeacherKwargsOption,
+    TeacherOption,
     VideoBackendOption,
     WorkersOption,
     check_noise,
@@ -336,8 +338,24 @@ def evaluate(
     workers: WorkersOption = None,
     executor: ExecutorOption = "local",
     address: AddressOption = None,
+    teacher: TeacherOption = None,
+    teacher_kwargs: TeacherKwargsOption = None,
+    reference: Annotated[
+        Path | None,
+        typer.Option(
+            help="Recorded demonstrations (Parquet) to score against, without a teacher: "
+            "each episode's first reading on the start channels is a start, the episode "
+            "its reference"
+        ),
+    ] = None,
 ) -> None:
     """Score a model (and baselines) against the teacher from test starts.
+
+    The reference of each start is our teacher's run for the model's behavior, your
+    own teacher's (--teacher, with --starts) or a recorded demonstration (--reference).
+    Beside the thesis's command score every case records path metrics on the goal
+    channels (DTW, discrete Fréchet, swept area; the metrics extra) and the final
+    error on each goal channel.
 
     Every start (and its goal) is checked before the first case runs; --json and
     --report are written together, or neither is. Each case also records the largest
@@ -357,8 +375,25 @@ def evaluate(
     check_seed(seed)
     check_noise(noise)
     pushed = _push(push) if push is not None else None
-    robot, robot_name = open_env(sim, env, env_kwargs) if env is not None else (None, sim)
-    inputs: dict[str, Any] = {"MODEL_FILE": model_file, "--starts": starts, "--data": data}
+    if teacher is not None and reference is not None:
+        raise ConfigError("give --teacher or --reference, not both")
+    if reference is not None and starts is not None:
+        raise ConfigError("--reference brings its own starts (each episode's first reading)")
+    if teacher is not None and starts is None:
+        raise ConfigError("--teacher needs --starts (a CSV with a column per start channel)")
+    if teacher_kwargs is not None and teacher is None:
+        raise ConfigError("--teacher-kwargs needs --teacher (the factory it is passed to)")
+    external = teacher is not None or reference is not None
+    if env is not None or external:
+        robot, robot_name = open_env(sim, env, env_kwargs)
+    else:
+        robot, robot_name = None, sim
+    inputs: dict[str, Any] = {
+        "MODEL_FILE": model_file,
+        "--starts": starts,
+        "--data": data,
+        "--reference": reference,
+    }
     outputs = {"--json": json_out, "--report": report}
     check_outputs(inputs, outputs, folders={"--videos": videos} if videos else None)
     if videos is not None:
@@ -368,8 +403,34 @@ def evaluate(
         # the baselines train on the model's own data file: never write over it
         inputs["the model's training data"] = Path(model.train_data_)
         check_outputs(inputs, outputs)
+    teacher_object, recorded = None, None
     if robot is None:
         chosen = read_starts(starts) if starts is not None else test_starts(model.behavior_)
+    elif external:
+        from behavior_hmm.runtime import Robot
+
+        warn_provenance(model, robot, robot_name)
+        chosen = []
+        if reference is not None:
+            from behavior_hmm.data import read as read_dataset
+
+            recorded = read_dataset(reference)
+        else:
+            from behavior_hmm.runtime import parse_env_kwargs
+            from behavior_hmm.teach._external import load_teacher
+
+            assert teacher is not None and starts is not None
+            where = Robot(robot).start_channels or tuple(model.resolve_goal(None))
+            chosen = read_starts(starts, math.inf, channels=where)
+            for i, row in enumerate(chosen):  # every goal before the first case runs
+                goal_of = {k[5:]: v for k, v in row.items() if k.startswith("goal_")}
+                if goal_of:
+                    try:
+                        model.resolve_goal(goal_of)
+                    except ConfigError as err:
+                        raise DatasetError(f"start {i + 1}: {err}", file=str(starts)) from None
+            kwargs = parse_env_kwargs(teacher_kwargs, "--teacher-kwargs")
+            teacher_object = load_teacher(teacher, robot, kwargs)
     else:
         warn_provenance(model, robot, robot_name)
         chosen = (
@@ -377,7 +438,8 @@ def evaluate(
             if starts is not None
             else scaled_starts(test_starts(model.behavior_), robot)
         )
-    _check_cases(model, chosen, starts, arena=robot is None)
+    if not external:
+        _check_cases(model, chosen, starts, arena=robot is None)
     runner = make_run_executor(executor, workers, address)
     baselines = _baselines(baseline or [], model, data, seed)
     with progress() as bar:
@@ -394,6 +456,8 @@ def evaluate(
             keep_traces=report is not None or videos is not None,
             push=pushed,
             executor=runner,
+            teacher=teacher_object,
+            reference=recorded,
         )
     traces = result.pop("_traces", None)
     written: dict[int, Path] = {}
@@ -500,6 +564,11 @@ def _baselines(names: list[str], model: Any, data: Path | None, seed: int) -> di
     return fit_baselines(model.inputs_, dataset, seed, list(dict.fromkeys(names)))
 
 
+def _one_decimal(value: float | None) -> str:
+    """A table cell: ``value`` to one decimal, or ``-`` where there is none."""
+    return "-" if value is None else f"{value:.1f}"
+
+
 def _print_evaluation(result: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -519,7 +588,7 @@ def _print_evaluation(result: dict[str, Any]) -> None:
             f"{r['success_rate_mean']:.1f}",
             f"{r['goal_reached']}/{r['n']}",
             f"{r['zero_floor_mean']:.1f}",
-            f"{r['success_rate_motor_max_mean']:.1f}",
+            _one_decimal(r["success_rate_motor_max_mean"]),
             f"{r['duration_ratio_mean']:.2f}",
             f"{r['command_jump_ratio_median']:.1f} / {r['command_jump_ratio_max']:.1f}",
             f"{r['switches_max']}",

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import json
 import math
 import sys
 from collections.abc import Mapping, Sequence
@@ -370,16 +369,20 @@ def load_factory(target: str, option: str = "--env") -> Any:
     return factory
 
 
-def parse_env_kwargs(text: str | None) -> dict[str, Any]:
-    """``--env-kwargs JSON`` -> a dict (a JSON object)."""
+def parse_env_kwargs(text: str | None, option: str = "--env-kwargs") -> dict[str, Any]:
+    """``--env-kwargs JSON`` (or ``--teacher-kwargs``) -> a dict (a JSON object).
+
+    Parsed as every JSON the package reads: nesting bounded before the parser recurses,
+    NaN and Infinity refused.
+    """
+    from behavior_hmm._safe_read import config_error, parse_json
+
     if not text:
         return {}
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"--env-kwargs is not valid JSON: {exc.msg} at char {exc.pos}") from None
+    value = parse_json(text, file=option, error=config_error)
     if not isinstance(value, dict):
-        raise ConfigError(f"--env-kwargs must be a JSON object, got {text!r}")
+        shown = text if len(text) <= 80 else text[:77] + "..."
+        raise ConfigError(f"{option} must be a JSON object, got {shown!r}")
     return value
 
 

@@ -223,7 +223,7 @@ def collect_with_teacher(
     if not starts:
         raise ConfigError("no starts to collect")
     check_teacher(teacher, teacher_name or "the teacher")
-    robot = Robot(env)
+    robot = env if isinstance(env, Robot) else Robot(env)
     contract = [c for c in SENSOR_CHANNELS if c in robot.channels]
     if contract and len(contract) != len(SENSOR_CHANNELS):
         lacking = [c for c in SENSOR_CHANNELS if c not in robot.channels]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import difflib
 import io
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
 
@@ -45,11 +46,16 @@ def test_starts(behavior: str) -> list[Start]:
         return read_starts(path)
 
 
-def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> list[Start]:
+def read_starts(
+    path: str | Path,
+    max_distance: float = ARENA_MAX_DISTANCE,
+    channels: Sequence[str] | None = None,
+) -> list[Start]:
     """Read a starts CSV with columns ``angle`` and/or ``distance`` (and ``goal_<channel>``).
 
     ``max_distance`` (m): the farthest start allowed (our arena's by default; another
-    robot's, ``--env``, may be larger).
+    robot's, ``--env``, may be larger). ``channels``: a robot's start channels (contract
+    version 2, e.g. ``x, y``): the columns are then those and ``goal_<channel>``.
 
     The file is read as every user file is (:func:`behavior_hmm._safe_read.read_text`):
     a regular file (a FIFO or a device is refused unopened) of UTF-8 text, at most 4 MiB,
@@ -69,15 +75,15 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
         with io.StringIO(text, newline="") as fh:
             reader = csv.DictReader(fh)
             fields = [f.strip() for f in (reader.fieldnames or [])]
-            allowed = {"angle", "distance", "goal_angle", "goal_distance"}
+            names = ["angle", "distance"] if channels is None else list(channels)
+            expected = " and/or ".join(names) if len(names) <= 2 else ", ".join(names)
+            allowed = {*names, *(f"goal_{c}" for c in names)}
             if not fields:
-                raise DatasetError(
-                    "empty starts file (expected columns angle and/or distance)", file=file
-                )
+                raise DatasetError(f"empty starts file (expected columns {expected})", file=file)
             repeated = [f for i, f in enumerate(fields) if f in fields[:i]]
             if repeated:
                 raise DatasetError(
-                    "column given twice (each of angle, distance, goal_<channel> at most once)",
+                    f"column given twice (each of {', '.join(names)}, goal_<channel> at most once)",
                     file=file,
                     field=_cell(repeated[0]),
                 )
@@ -86,12 +92,12 @@ def read_starts(path: str | Path, max_distance: float = ARENA_MAX_DISTANCE) -> l
                 close = difflib.get_close_matches(unknown[0], sorted(allowed), n=1)
                 hint = f"; did you mean '{close[0]}'?" if close else ""
                 raise DatasetError(
-                    "unknown column (expected angle, distance, goal_angle, goal_distance)" + hint,
+                    f"unknown column (expected {', '.join(sorted(allowed))})" + hint,
                     file=file,
                     field=_cell(unknown[0]),
                 )
-            if "angle" not in fields and "distance" not in fields:
-                raise DatasetError("a starts file needs a column angle and/or distance", file=file)
+            if not any(c in fields for c in names):
+                raise DatasetError(f"a starts file needs a column {expected}", file=file)
             starts: list[Start] = []
             for row in reader:
                 line = reader.line_num  # the file's line number of this row
