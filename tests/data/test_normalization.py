@@ -96,7 +96,7 @@ def test_command_scaler_fits_largest_absolute_command(small_ds: Dataset) -> None
 
 def test_command_scaler_contract() -> None:
     scaler = CommandScaler()
-    assert scaler.get_params() == {}
+    assert scaler.get_params() == {"units": None}
     with pytest.raises(NotFittedError):
         scaler.transform([[1.0, 1.0]])
     with pytest.raises(DatasetError, match="zero"):
@@ -106,6 +106,17 @@ def test_command_scaler_contract() -> None:
     with pytest.raises(DatasetError, match="no commands"):
         scaler.fit(np.zeros((0, 2)))
     assert scaler.fit([[3.0, 1.0]]) is scaler
+
+
+def test_command_channels_of_one_unit_share_a_scale_and_others_get_their_own() -> None:
+    wheels_and_gripper = np.array([[3.0, -4.0, 0.01], [1.0, 2.0, 0.03]])
+    scaler = CommandScaler(["rad/s", "rad/s", "m"]).fit(wheels_and_gripper)
+    assert scaler.scales_.tolist() == [4.0, 4.0, 0.03]
+    assert scaler.transform(wheels_and_gripper)[1].tolist() == pytest.approx([0.25, 0.5, 1.0])
+    again = CommandScaler.from_dict(json.loads(json.dumps(scaler.to_dict())))
+    assert again.transform([[4.0, 4.0, 0.03]]).tolist() == [[1.0, 1.0, 1.0]]
+    # one unit: one scalar scale, as the thesis normalizes (DESIGN §6)
+    assert CommandScaler().fit(wheels_and_gripper[:, :2]).to_dict() == {"scale": 4.0}
 
 
 def test_command_scaler_dict_round_trip() -> None:

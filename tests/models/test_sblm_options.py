@@ -72,7 +72,9 @@ def test_recognized_primitive_is_one_the_plan_allows(
     model = SBLM(**{**turn_model.get_params(), "primitive_recognition": recognition})
     for name in ("inputs_", "pipeline_", "primitives_", "observations_", "hmm_"):
         setattr(model, name, getattr(turn_model, name))
-    for name in ("generators_", "command_scale_", "delta_scale_", "rest_values_"):
+    for name in ("generators_", "command_scale_", "command_scales_", "command_specs_"):
+        setattr(model, name, getattr(turn_model, name))
+    for name in ("delta_scale_", "rest_values_"):
         setattr(model, name, getattr(turn_model, name))
     model.default_goal_, model.max_steps_ = turn_model.default_goal_, turn_model.max_steps_
     model.behavior_ = turn_model.behavior_

@@ -25,6 +25,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from contract_testing import Cli
 from gymnasium import spaces
 
 from behavior_hmm.data import CONTROL_PERIOD, Dataset
@@ -248,24 +249,13 @@ def test_a_model_without_a_teacher_of_ours_needs_one(reach: SBLM) -> None:
 
 
 @pytest.mark.slow
-def test_collect_train_generate_evaluate_through_the_cli(tmp_path: Path) -> None:
+def test_collect_train_generate_evaluate_through_the_cli(tmp_path: Path, cli: Cli) -> None:
     """The whole loop on a robot that is not wheels, through the command line only."""
-    from typer.testing import CliRunner
-
-    from behavior_hmm.cli import app
-
     here = Path(__file__)
     env, tutor = f"{here}:make", f"{here}:teacher"
     starts = tmp_path / "starts.csv"
     starts.write_text("x,y\n" + "".join(f"{s['x']},{s['y']}\n" for s in TRAIN_STARTS))
     data, model = tmp_path / "reach.parquet", tmp_path / "reach.bhmm"
-    runner = CliRunner()
-
-    def cli(*args: object) -> Any:
-        out = runner.invoke(app, [str(a) for a in args])
-        assert out.exit_code == 0, out.output
-        return out
-
     cli(
         "collect",
         "reach",

@@ -18,10 +18,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from contract_testing import Cli
 from gymnasium import spaces
-from typer.testing import CliRunner
 
-from behavior_hmm.cli import app
 from behavior_hmm.data import CONTROL_PERIOD
 
 LINKS = (0.30, 0.25)  # m
@@ -165,20 +164,13 @@ def test_the_teacher_reaches_the_target() -> None:
 
 
 @pytest.mark.slow
-def test_the_arm_learns_to_reach_through_the_cli(tmp_path: Path) -> None:
+def test_the_arm_learns_to_reach_through_the_cli(tmp_path: Path, cli: Cli) -> None:
     here = Path(__file__)
     env, tutor = f"{here}:make", f"{here}:teacher"
     starts, held_out = tmp_path / "starts.csv", tmp_path / "held_out.csv"
     starts.write_text("dx,dy\n" + "".join(f"{x},{y}\n" for x, y in TRAIN))
     held_out.write_text("dx,dy\n" + "".join(f"{x},{y}\n" for x, y in HELD_OUT))
     data, model, report = tmp_path / "reach.parquet", tmp_path / "reach.bhmm", tmp_path / "e.json"
-    runner = CliRunner()
-
-    def cli(*args: object) -> Any:
-        out = runner.invoke(app, [str(a) for a in args])
-        assert out.exit_code == 0, out.output
-        return out
-
     cli(
         "collect",
         "arm-reach",

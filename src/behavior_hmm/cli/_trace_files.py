@@ -80,17 +80,21 @@ def read_trace(path: Path) -> tuple[Any, dict[str, Any]]:
     table, summary = _load(path)
     names = list(table.column_names)
     channels = [n for n in names if not n.startswith("true_") and f"true_{n}" in names]
-    missing = [c for c in ("t", "left", "right") if c not in names]
+    commands = summary.get("command_channels") or ["left", "right"]
+    if not isinstance(commands, list) or not all(
+        isinstance(c, str) and 0 < len(c) <= 64 for c in commands
+    ):
+        raise DatasetError("trace summary: command_channels must be column names", file=str(path))
+    missing = [c for c in ("t", *commands) if c not in names]
     if missing or not channels:
         missing += [] if channels else ["<channel> and true_<channel>"]
         raise DatasetError(f"trace without column(s) {', '.join(missing)}", file=str(path))
-    trace = Trace(channels=channels)
+    trace = Trace(channels=channels, command_channels=list(commands))
     trace.t = _numbers(table, "t", path).tolist()
     readings = np.column_stack([_numbers(table, c, path) for c in channels])
     true = np.column_stack([_numbers(table, f"true_{c}", path) for c in channels])
     trace.readings, trace.true_readings = list(readings), list(true)
-    commands = np.column_stack([_numbers(table, c, path) for c in ("left", "right")])
-    trace.commands = list(commands)
+    trace.commands = list(np.column_stack([_numbers(table, c, path) for c in commands]))
     if all(c in names for c in ("x", "y", "yaw")):
         trace.pose = list(np.column_stack([_numbers(table, c, path) for c in ("x", "y", "yaw")]))
     for name, kind in (("observation", int), ("state", int), ("held", int)):

@@ -86,9 +86,10 @@ ChannelOption = Annotated[
     list[str] | None,
     typer.Option(
         "--channel",
-        help="NAME:UNIT:LO:HI, a robot's own sensor column of your file (e.g. ir0:m:0:0.1 "
-        "for an infrared proximity reading in m, normalized from [0, 0.1]); imported in "
-        "that unit and declared in the dataset's metadata (repeatable)",
+        help="NAME:UNIT:LO:HI[:TOL], a robot's own sensor column of your file (e.g. "
+        "ir0:m:0:0.1 for an infrared proximity reading in m, normalized from [0, 0.1]; TOL: "
+        "its goal tolerance, needed for a goal on it); imported in that unit and declared "
+        "in the dataset's metadata (repeatable)",
     ),
 ]
 
@@ -581,20 +582,41 @@ def _metadata(behavior: str | None, options: dict[str, Any]) -> dict[str, Any]:
 
 
 def channel_options(items: list[str]) -> list[dict[str, Any]]:
-    """``["ir0:m:0:0.1", ...]`` -> channel declarations ``{"name", "unit", "range"}``."""
-    out: list[dict[str, Any]] = []
+    """``["ir0:m:0:0.1", "x:m:-1:1:0.01", ...]`` -> channel declarations ``{"name", "unit",
+    "range"}`` (a fifth part: the goal ``tolerance``)."""
+    return [_declaration("--channel", item, "tolerance", "ir0:m:0:0.1") for item in items]
+
+
+def command_options(items: list[str]) -> list[dict[str, Any] | str]:
+    """``["left", "right", "grip:m/s:-0.05:0.05[:REST]"]`` -> the command channels: known
+    names as they are, declarations ``{"name", "unit", "range", "rest"}``."""
+    out: list[dict[str, Any] | str] = []
     for item in items:
-        parts = [part.strip() for part in item.split(":")]
-        if len(parts) != 4 or not all(parts):
-            raise ConfigError(f"--channel expects NAME:UNIT:LO:HI (e.g. ir0:m:0:0.1), got '{item}'")
-        name, unit, lo, hi = parts
-        try:
-            bounds = [float(lo), float(hi)]
-        except ValueError:
-            raise ConfigError(
-                f"--channel {item}: LO and HI must be numbers (e.g. ir0:m:0:0.1)"
-            ) from None
-        out.append({"name": name, "unit": unit, "range": bounds})
+        name = item.strip()
+        if ":" not in name:
+            out.append(name)
+            continue
+        out.append(_declaration("--command", item, "rest", "grip:m/s:-0.05:0.05"))
+    return out
+
+
+def _declaration(option: str, item: str, fifth: str, example: str) -> dict[str, Any]:
+    """``NAME:UNIT:LO:HI[:FIFTH]`` -> ``{"name", "unit", "range"[, fifth]}``."""
+    shown = item if len(item) <= 80 else item[:77] + "..."
+    parts = [part.strip() for part in item.split(":")]
+    if len(parts) not in (4, 5) or not all(parts):
+        raise ConfigError(
+            f"{option} expects NAME:UNIT:LO:HI[:{fifth.upper()}] (e.g. {example}), got '{shown}'"
+        )
+    try:
+        numbers = [float(v) for v in parts[2:]]
+    except ValueError:
+        raise ConfigError(
+            f"{option} {shown}: LO, HI and {fifth.upper()} must be numbers (e.g. {example})"
+        ) from None
+    out: dict[str, Any] = {"name": parts[0], "unit": parts[1], "range": numbers[:2]}
+    if len(numbers) == 3:
+        out[fifth] = numbers[2]
     return out
 
 
@@ -639,6 +661,16 @@ def import_csv(
     map_file: MapFileOption = None,
     behavior: BehaviorOption = None,
     channel: ChannelOption = None,
+    command: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--command",
+            help="The robot's command channels in action order, replacing our two wheels: "
+            "NAME:UNIT:LO:HI[:REST] for a channel of yours (REST: the command that holds "
+            "the robot still, default 0), or a known name (left, right); e.g. --command "
+            "left --command right --command grip:m/s:-0.05:0.05 (repeatable)",
+        ),
+    ] = None,
 ) -> None:
     """Convert a CSV log into a validated dataset (same checks as Parquet).
 
@@ -675,6 +707,7 @@ def import_csv(
             derive=derived,
             resample=resample or bool(options.get("resample")),
             channels=channels,
+            commands=command_options(command) if command else None,
         )
     data.write(dataset, out)
     _wrote(out, dataset)

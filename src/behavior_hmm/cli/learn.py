@@ -473,7 +473,7 @@ def evaluate(
             write_evaluation_report(result, traces, report, videos=written or None)
     if report is not None:
         log.info("report: %s", report)
-    _print_evaluation(result)
+    _print_evaluation(result, robot_name)
 
 
 def _write_videos(
@@ -569,11 +569,12 @@ def _one_decimal(value: float | None) -> str:
     return "-" if value is None else f"{value:.1f}"
 
 
-def _print_evaluation(result: dict[str, Any]) -> None:
+def _print_evaluation(result: dict[str, Any], robot: str | None = None) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"{result['behavior']} on {','.join(result['inputs'])} ({result['sim']})")
+    where = result["sim"] or robot
+    table = Table(title=f"{result['behavior']} on {','.join(result['inputs'])} ({where})")
     columns = ["", "success %", "goal reached", "zero floor %", "motor-max %", "duration x"]
     columns += ["jump x (median/max)", "switches (max)"]
     if "pushed" in result:

@@ -54,6 +54,7 @@ from behavior_hmm.data._validate import (
     SCHEMA_VERSION,
     VALUE_BOUNDS,
     declared_channels,
+    declared_commands,
     validate,
 )
 
@@ -91,6 +92,7 @@ __all__ = [
     "SignalPipeline",
     "channel_from_metadata",
     "declared_channels",
+    "declared_commands",
     "derive_velocities",
     "export_lerobot",
     "import_bags",

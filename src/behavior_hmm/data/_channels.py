@@ -61,6 +61,9 @@ class ChannelSpec:
         value in that unit into ``unit``; ``unit`` itself is always accepted.
     label
         Human-readable name for plots and reports (default: ``name`` with spaces).
+    rest
+        For a command channel: the command that holds the robot still (wheels: 0 rad/s),
+        sent whenever a run stops.
     """
 
     name: str
@@ -72,6 +75,7 @@ class ChannelSpec:
     bounds: tuple[float, float] | None = None
     units: Mapping[str, float] = field(default_factory=dict)
     label: str = ""
+    rest: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not CHANNEL_NAME.match(self.name):
@@ -104,6 +108,13 @@ class ChannelSpec:
         object.__setattr__(self, "units", units)
         if not self.label:
             object.__setattr__(self, "label", self.name.replace("_", " "))
+        try:
+            rest = float(self.rest)
+        except (TypeError, ValueError):
+            raise ConfigError(f"channel {self.name}: rest must be a number") from None
+        if not math.isfinite(rest):
+            raise ConfigError(f"channel {self.name}: rest must be finite, got {rest}")
+        object.__setattr__(self, "rest", rest)
 
     @property
     def axis_label(self) -> str:
@@ -128,6 +139,8 @@ class ChannelSpec:
             out["wraps"] = True
         if self.label != self.name.replace("_", " "):
             out["label"] = self.label
+        if self.rest != 0.0:
+            out["rest"] = self.rest
         return out
 
 
@@ -195,7 +208,8 @@ CHANNELS: dict[str, ChannelSpec] = {spec.name: spec for spec in _SPECS}
 #: The data contract's sensor channels in their canonical order (our simulator's order).
 SENSOR_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind == "sensor")
 
-#: Motor command channels (wheel speeds, rad/s), in order.
+#: The default command channels (our robots' wheel speeds, rad/s), in order: a dataset
+#: or robot that declares none commands these.
 COMMAND_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind == "command")
 
 
@@ -279,7 +293,7 @@ def channel_from_metadata(entry: Mapping[str, Any]) -> ChannelSpec:
     """A channel declared in a dataset's metadata: ``{"name", "unit", "range", ...}``."""
     if not isinstance(entry, Mapping):
         raise ConfigError(f"a channel declaration must be a mapping, got {entry!r}")
-    unknown = set(entry) - {"name", "unit", "range", "kind", "tolerance", "wraps", "label"}
+    unknown = set(entry) - {"name", "unit", "range", "kind", "tolerance", "wraps", "label", "rest"}
     if unknown:
         raise ConfigError(f"unknown key(s) {', '.join(sorted(unknown))} in channel {entry!r}")
     for key in ("name", "unit", "range"):
@@ -296,7 +310,42 @@ def channel_from_metadata(entry: Mapping[str, Any]) -> ChannelSpec:
         tolerance=entry.get("tolerance"),
         wraps=bool(entry.get("wraps", False)),
         label=str(entry.get("label", "")),
+        rest=entry.get("rest", 0.0),
     )
+
+
+def known_or_declared(spec: ChannelSpec) -> ChannelSpec:
+    """The registered channel of ``spec``'s name if ``spec`` declares it the same way
+    (it then keeps its import units and bounds), else ``spec`` itself."""
+    known = CHANNELS.get(spec.name)
+    if known is not None and known.to_metadata() == spec.to_metadata():
+        return known
+    return spec
+
+
+def command_from_declaration(entry: ChannelSpec | Mapping[str, Any] | str) -> ChannelSpec:
+    """One command channel as a dataset, a model or a robot declares it: a spec, a
+    mapping ``{"name", "unit", "range", "rest", "label"}`` (its ``kind`` defaults to
+    ``"command"``), or the name of a registered command channel (``"left"``).
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name, a malformed mapping, or a channel that is not a command.
+    """
+    if isinstance(entry, ChannelSpec):
+        spec = entry
+    elif isinstance(entry, str):
+        if entry not in CHANNELS:
+            raise ConfigError(f"unknown command channel {entry[:80]!r}; declare it")
+        spec = CHANNELS[entry]
+    elif isinstance(entry, Mapping):
+        spec = known_or_declared(channel_from_metadata({"kind": "command", **entry}))
+    else:
+        raise ConfigError(f"a command declaration must be a mapping, got {type(entry).__name__}")
+    if spec.kind != "command":
+        raise ConfigError(f"'{spec.name}' is a sensor channel, not a command")
+    return spec
 
 
 def channel(name: str, extra: Iterable[ChannelSpec] = ()) -> ChannelSpec:

@@ -23,7 +23,12 @@ import pyarrow.csv as pa_csv
 from numpy.typing import NDArray
 
 from behavior_hmm._safe_read import read_text
-from behavior_hmm.data._channels import CONTROL_PERIOD, ChannelSpec, channel_from_metadata
+from behavior_hmm.data._channels import (
+    COMMAND_CHANNELS,
+    CONTROL_PERIOD,
+    ChannelSpec,
+    channel_from_metadata,
+)
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._transform import (
     DERIVABLE,
@@ -47,11 +52,10 @@ from behavior_hmm.data._validate import (
     REQUIRED_COLUMNS,
     check_table,
     declared_channels,
+    declared_commands,
     suggest,
 )
 from behavior_hmm.errors import ConfigError, DatasetError
-
-_OURS = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS)
 
 #: A number as pyarrow's float parser reads it (used only to find a bad cell quickly).
 _NUMBER_RE = r"(?i)^[+-]?((\d+\.?\d*|\.\d+)(e[+-]?\d+)?|nan|inf|infinity)$"
@@ -305,13 +309,16 @@ def _resolve_header(
     derive: Collection[str],
     file: str,
     extra: Sequence[str] = (),
+    commands: Sequence[str] = COMMAND_CHANNELS,
 ) -> dict[str, int]:
     """Our column name -> index of the CSV column that holds it.
 
     Every unexpected column is named in one line; so is every missing one. ``extra``
-    are the declared channels: ours too, and required.
+    are the declared channels: ours too, and required; ``commands`` the command
+    channels (default our wheels), which are required.
     """
-    ours_all = (*_OURS, *extra)
+    needed = [*(c for c in REQUIRED_COLUMNS if c not in COMMAND_CHANNELS), *commands]
+    ours_all = (*needed, *OPTIONAL_COLUMNS, *extra)
     ours_listed = _names(ours_all, 4 * SHOWN_NAMES)
     for ours in mapping:
         if ours not in ours_all:
@@ -364,7 +371,7 @@ def _resolve_header(
                 f"--derive {name}: the file has a '{name}' column already "
                 f"(ignore it with --drop {_name(header[index[name]])} to derive it instead)"
             )
-    required = [c for c in REQUIRED_COLUMNS if c != "episode" and c not in derive]
+    required = [c for c in needed if c != "episode" and c not in derive]
     missing = [c for c in required if c not in index]
     missing_extra = [c for c in extra if c not in index]
     if len(unknown) == 1:
@@ -396,14 +403,14 @@ def _resolve_header(
     )
     if len(missing) == 1:
         raise DatasetError(
-            f"missing column (a dataset needs: {', '.join(REQUIRED_COLUMNS)}){hint}",
+            f"missing column (a dataset needs: {', '.join(needed)}){hint}",
             file=file,
             field=missing[0],
         )
     if missing:
         raise DatasetError(
             f"missing columns {', '.join(repr(m) for m in missing)} "
-            f"(a dataset needs: {', '.join(REQUIRED_COLUMNS)}){hint}",
+            f"(a dataset needs: {', '.join(needed)}){hint}",
             file=file,
         )
     if missing_extra:
@@ -623,6 +630,7 @@ def import_csv(
     resample: bool = False,
     period: float = CONTROL_PERIOD,
     channels: Sequence[ChannelSpec | Mapping[str, Any]] | None = None,
+    commands: Sequence[ChannelSpec | Mapping[str, Any] | str] | None = None,
 ) -> Dataset:
     """Read a user's CSV log into a validated :class:`Dataset`.
 
@@ -671,6 +679,12 @@ def import_csv(
         declared units (no conversion), checked like ours (finite, within the spec's
         ``bounds``), and declared in ``metadata["channels"]`` (after any the given
         ``metadata`` declares already).
+    commands
+        The robot's command channels in action order, replacing our two wheels:
+        declarations ``{"name": "gripper", "unit": "m", "range": [0, 0.03], "rest":
+        0.0}`` or names of known ones (``"left"``, ``"right"``); e.g. the wheels and a
+        gripper. Declared in ``metadata["commands"]``; a declared channel's column is
+        imported in its declared unit.
 
     Episode ids may be integers or names (``run-a``); names become ids 0, 1, ... in
     order of appearance and are kept in ``metadata["source"]["episode_ids"]``.
@@ -692,11 +706,20 @@ def import_csv(
     md = dict(metadata or {})
     extras = _extra_channels(md, channels, file)
     extra_names = [spec.name for spec in extras]
+    if commands is not None:
+        md["commands"] = [
+            spec.to_metadata() for spec in declared_commands({"commands": list(commands)})
+        ]
+    command_specs = declared_commands(md, file=file)
+    command_names = [spec.name for spec in command_specs]
+    own_commands = [spec for spec in command_specs if spec.name not in COMMAND_CHANNELS]
     for name, unit in units.items():
         if len(name) > SHOWN_CHARS or len(unit) > SHOWN_CHARS:
             raise ConfigError(f"unit {_shown(unit)} for column {_shown(name)}: no such unit")
     factors = {
-        name: _extra_unit(spec, unit) if (spec := _find(extras, name)) else unit_factor(name, unit)
+        name: _extra_unit(spec, unit)
+        if (spec := _find([*extras, *own_commands], name))
+        else unit_factor(name, unit)
         for name, unit in units.items()
     }
     check_units_of_derived(units, derived)
@@ -713,7 +736,9 @@ def import_csv(
             f"cells (limit {MAX_CSV_CELLS:,}); split the log into smaller files",
             file=file,
         )
-    index = _resolve_header(header, mapping, set(drop), derived, file, extra_names)
+    index = _resolve_header(
+        header, mapping, set(drop), derived, file, extra_names, commands=command_names
+    )
     quoted = '"' in text
     del text  # pyarrow parses ``body``
     columns, names = _columns(
@@ -722,7 +747,11 @@ def import_csv(
         lines,
         file=file,
         split_on_time_reset=split_on_time_reset,
-        wanted=[name for name in (*FLOAT_COLUMNS, *extra_names) if name not in derived],
+        wanted=[
+            name
+            for name in (*FLOAT_COLUMNS, *extra_names, *command_names)
+            if name not in derived and (name not in COMMAND_CHANNELS or name in command_names)
+        ],
         factors=factors,
     )
     del body  # the cells are columns now: free them before finish copies those

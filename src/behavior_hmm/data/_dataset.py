@@ -17,6 +17,7 @@ from behavior_hmm.data._validate import (
     check_column_names,
     check_table,
     declared_channels,
+    declared_commands,
     own_channels_only,
     suggest,
 )
@@ -59,11 +60,14 @@ class Episode:
         the four of ``SENSOR_CHANNELS`` (m, m/s, deg, deg/s), then the dataset's declared
         channels (in their declared units).
     commands
-        Wheel commands ``left``, ``right`` (rad/s), shape ``(n, 2)``.
+        Commands in ``command_channels`` order, shape ``(n, k)``: by default the wheel
+        speeds ``left``, ``right`` (rad/s).
     behavior
         Active sub-behavior name per row (object array of ``str``), or ``None``.
     sensor_channels
         Names of the ``sensors`` columns (default ``SENSOR_CHANNELS``).
+    command_channels
+        Names of the ``commands`` columns (default ``COMMAND_CHANNELS``).
     """
 
     id: int
@@ -72,6 +76,7 @@ class Episode:
     commands: NDArray[np.float64]
     behavior: NDArray[np.object_] | None = None
     sensor_channels: tuple[str, ...] = SENSOR_CHANNELS
+    command_channels: tuple[str, ...] = COMMAND_CHANNELS
 
     def __len__(self) -> int:
         return len(self.t)
@@ -79,7 +84,7 @@ class Episode:
     @property
     def numeric_channels(self) -> tuple[str, ...]:
         """``t``, the sensor channels and the commands: what :meth:`channel` returns."""
-        return ("t", *self.sensor_channels, *COMMAND_CHANNELS)
+        return ("t", *self.sensor_channels, *self.command_channels)
 
     def channel(self, name: str) -> NDArray[np.float64]:
         """One channel (``t``, a sensor or a command) as a read-only ``(n,)`` view."""
@@ -88,7 +93,7 @@ class Episode:
             return self.t
         if name in self.sensor_channels:
             return self.sensors[:, self.sensor_channels.index(name)]
-        return self.commands[:, COMMAND_CHANNELS.index(name)]
+        return self.commands[:, self.command_channels.index(name)]
 
     def columns(self, names: str | Sequence[str]) -> NDArray[np.float64]:
         """Several channels stacked as a new ``(n, k)`` float64 array."""
@@ -100,7 +105,7 @@ class Episode:
         out: dict[str, Any] = {"episode": self.id, "t": self.t.copy()}
         for j, name in enumerate(self.sensor_channels):
             out[name] = self.sensors[:, j].copy()
-        for j, name in enumerate(COMMAND_CHANNELS):
+        for j, name in enumerate(self.command_channels):
             out[name] = self.commands[:, j].copy()
         if self.behavior is not None:
             out["behavior"] = self.behavior.copy()
@@ -141,6 +146,8 @@ class Dataset:
 
     __slots__ = (
         "_behavior",
+        "_command_channels",
+        "_command_specs",
         "_commands",
         "_episode",
         "_extras",
@@ -156,6 +163,8 @@ class Dataset:
     _episode: NDArray[np.int64]
     _t: NDArray[np.float64]
     _sensors: NDArray[np.float64]
+    _command_specs: tuple[ChannelSpec, ...]
+    _command_channels: tuple[str, ...]
     _sensor_channels: tuple[str, ...]
     _extras: tuple[ChannelSpec, ...]
     _commands: NDArray[np.float64]
@@ -186,7 +195,9 @@ class Dataset:
         contract = tuple(c for c in SENSOR_CHANNELS if c in cols)
         self._sensor_channels = (*contract, *(spec.name for spec in self._extras))
         self._sensors = _readonly(np.stack([cols[c] for c in self._sensor_channels], axis=1))
-        self._commands = _readonly(np.stack([cols[c] for c in COMMAND_CHANNELS], axis=1))
+        self._command_specs = declared_commands(md)
+        self._command_channels = tuple(spec.name for spec in self._command_specs)
+        self._commands = _readonly(np.stack([cols[c] for c in self._command_channels], axis=1))
         behavior = cols.get("behavior")
         self._behavior = None if behavior is None else _readonly(np.asarray(behavior, object))
         self._metadata_json = json.dumps(md, sort_keys=True)
@@ -218,7 +229,9 @@ class Dataset:
         """
         episodes = list(episodes)
         extra = [spec.name for spec in declared_channels(metadata)]
-        names_needed: tuple[str, ...] = (*REQUIRED_COLUMNS, *extra)
+        commands = tuple(spec.name for spec in declared_commands(metadata))
+        base = (c for c in REQUIRED_COLUMNS if c not in COMMAND_CHANNELS)
+        names_needed: tuple[str, ...] = (*base, *commands, *extra)
         first = episodes[0] if episodes else {}
         first_names = first.to_dict() if isinstance(first, Episode) else first
         if isinstance(first_names, Mapping) and own_channels_only(first_names, extra):
@@ -238,7 +251,7 @@ class Dataset:
                 names.append("episode")
             eid = item.get("episode", position)
             try:
-                check_column_names(names, extra=extra)
+                check_column_names(names, extra=extra, commands=commands)
             except DatasetError as err:
                 raise DatasetError(err.reason, episode=eid, field=err.field) from None
             t = np.asarray(item["t"])
@@ -333,7 +346,17 @@ class Dataset:
     @property
     def numeric_channels(self) -> tuple[str, ...]:
         """``t``, the sensor channels and the commands: what :meth:`column` returns."""
-        return ("t", *self._sensor_channels, *COMMAND_CHANNELS)
+        return ("t", *self._sensor_channels, *self._command_channels)
+
+    @property
+    def command_channels(self) -> tuple[str, ...]:
+        """Names of the ``commands`` columns, in action order (default ``left``, ``right``)."""
+        return self._command_channels
+
+    @property
+    def command_specs(self) -> list[ChannelSpec]:
+        """The :class:`ChannelSpec` of each command channel (the metadata's ``commands``)."""
+        return list(self._command_specs)
 
     @property
     def metadata(self) -> dict[str, Any]:
@@ -355,7 +378,8 @@ class Dataset:
 
     @property
     def commands(self) -> NDArray[np.float64]:
-        """Wheel commands ``left``, ``right`` (rad/s), shape ``(n_samples, 2)``."""
+        """Commands in ``command_channels`` order, shape ``(n_samples, k)``: by default
+        the wheel speeds ``left``, ``right`` (rad/s)."""
         return self._commands
 
     @property
@@ -370,7 +394,7 @@ class Dataset:
             return self._t
         if name in self._sensor_channels:
             return self._sensors[:, self._sensor_channels.index(name)]
-        return self._commands[:, COMMAND_CHANNELS.index(name)]
+        return self._commands[:, self._command_channels.index(name)]
 
     def columns(self, names: str | Sequence[str]) -> NDArray[np.float64]:
         """Several channels stacked as a new ``(n_samples, k)`` float64 array."""
@@ -381,12 +405,12 @@ class Dataset:
         """All columns as writable copies, in file order (``behavior`` last if present).
 
         File order: ``episode``, ``t``, the sensor channels (``sensor_channels``),
-        ``left``, ``right``.
+        the command channels (``command_channels``).
         """
         out: dict[str, NDArray[Any]] = {"episode": self._episode.copy(), "t": self._t.copy()}
         for j, name in enumerate(self._sensor_channels):
             out[name] = self._sensors[:, j].copy()
-        for j, name in enumerate(COMMAND_CHANNELS):
+        for j, name in enumerate(self._command_channels):
             out[name] = self._commands[:, j].copy()
         if self._behavior is not None:
             out["behavior"] = self._behavior.copy()
@@ -409,6 +433,7 @@ class Dataset:
             self._commands[a:b],
             behavior,
             self._sensor_channels,
+            self._command_channels,
         )
 
     def episodes(self) -> Iterator[Episode]:

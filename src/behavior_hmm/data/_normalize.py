@@ -145,49 +145,71 @@ class Normalizer:
 
 
 class CommandScaler(Estimator):
-    """Scale wheel commands into [−1, 1] by the largest absolute training command.
+    """Scale commands into [−1, 1] by the largest absolute training command.
 
-    One scale for both wheels (DESIGN §6): ``scale_ = max |command|`` over the
-    training demonstrations, so the demonstrated commands fill [−1, 1].
+    One scale for channels that share a unit (DESIGN §6: both wheels by the largest
+    absolute wheel command, so the demonstrated commands fill [−1, 1]); a channel in
+    another unit (a gripper's opening) gets its own.
+
+    Parameters
+    ----------
+    units
+        The unit of each command column; ``None``: one unit for all (our wheels).
 
     Attributes
     ----------
     scale_ : float
-        Largest absolute command in the training data, rad/s.
+        Largest absolute command in the training data (in the first unit: rad/s for
+        wheels).
+    scales_ : ndarray of shape (k,)
+        Each column's scale: the largest absolute command among the columns of its unit.
     """
 
-    def __init__(self) -> None:
-        pass
+    def __init__(self, units: Sequence[str] | None = None) -> None:
+        self.units = units
 
     def fit(self, commands: ArrayLike | Any) -> CommandScaler:
-        """Learn the scale from commands (rad/s, shape ``(n, 2)``) or a ``Dataset``."""
+        """Learn the scales from commands (shape ``(n, k)``) or a ``Dataset``."""
         u = np.asarray(getattr(commands, "commands", commands), dtype=np.float64)
         if u.size == 0:
             raise DatasetError("no commands to fit the scale on")
         if not np.all(np.isfinite(u)):
             raise DatasetError("commands contain NaN or infinite values")
-        scale = float(np.max(np.abs(u)))
-        if scale == 0.0:
-            raise DatasetError("all wheel commands are zero; there is no scale to learn")
-        self.scale_ = scale
+        u = u.reshape(len(u), -1)
+        units = list(self.units) if self.units is not None else [""] * u.shape[1]
+        if len(units) != u.shape[1]:
+            raise DatasetError(f"{len(units)} command units for {u.shape[1]} command columns")
+        peak = np.max(np.abs(u), axis=0)
+        scales = np.array([max(peak[[j for j, v in enumerate(units) if v == w]]) for w in units])
+        if np.any(scales == 0.0):
+            zero = units[int(np.argmax(scales == 0.0))] or "the"
+            raise DatasetError(f"all {zero} commands are zero; there is no scale to learn")
+        self.scale_ = float(scales[0]) if len(set(units)) > 1 else float(np.max(peak))
+        self.scales_ = scales
         return self
 
-    def _scale(self) -> float:
+    def _scale(self) -> NDArray[np.float64] | float:
         if not hasattr(self, "scale_"):
             raise NotFittedError("CommandScaler is not fitted; call fit(commands) first")
-        return self.scale_
+        scales = getattr(self, "scales_", None)
+        if scales is None or len(set(np.asarray(scales).tolist())) == 1:
+            return self.scale_  # one unit: the scalar, bit for bit
+        return np.asarray(scales, dtype=np.float64)
 
     def transform(self, commands: ArrayLike) -> NDArray[np.float64]:
-        """rad/s -> normalized (training commands land in [−1, 1])."""
+        """Physical units -> normalized (training commands land in [−1, 1])."""
         return np.asarray(commands, dtype=np.float64) / self._scale()
 
     def inverse_transform(self, y: ArrayLike) -> NDArray[np.float64]:
-        """Normalized -> rad/s."""
+        """Normalized -> physical units."""
         return np.asarray(y, dtype=np.float64) * self._scale()
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready learned state."""
-        return {"scale": self._scale()}
+        """JSON-ready learned state (``scales`` only when the units differ)."""
+        scale = self._scale()
+        if isinstance(scale, np.ndarray):
+            return {"scale": self.scale_, "scales": [float(v) for v in scale]}
+        return {"scale": scale}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> CommandScaler:
@@ -202,4 +224,10 @@ class CommandScaler(Estimator):
             raise ConfigError(f"command scale must be a positive finite number, got {scale!r}")
         out = cls()
         out.scale_ = float(scale)
+        scales = d.get("scales")
+        if scales is not None:
+            values = np.asarray(scales, dtype=np.float64) if isinstance(scales, list) else None
+            if values is None or values.ndim != 1 or not np.all(np.isfinite(values) & (values > 0)):
+                raise ConfigError(f"command scales must be positive finite numbers, got {scales!r}")
+            out.scales_ = values
         return out

@@ -30,6 +30,7 @@ from behavior_hmm.data._validate import (
     check_column_names,
     check_table,
     declared_channels,
+    declared_commands,
 )
 from behavior_hmm.errors import BehaviorHMMError, DatasetError
 
@@ -220,7 +221,8 @@ def read(path: str | os.PathLike[str], *, behaviors: Collection[str] | None = No
             metadata = _metadata_from_schema(pf.schema_arrow, file)
             canonical_metadata(metadata, file=file)
             extra = [spec.name for spec in declared_channels(metadata, file=file)]
-            check_column_names(pf.schema_arrow.names, file=file, extra=extra)
+            commands = [spec.name for spec in declared_commands(metadata, file=file)]
+            check_column_names(pf.schema_arrow.names, file=file, extra=extra, commands=commands)
             table = _read_table(pf, file)
     except BehaviorHMMError:
         raise

@@ -154,7 +154,10 @@ def resample(
         new_t = tt[0] + period * np.arange(n)
         parts["episode"].append(np.full(n, episode[a], dtype=np.int64))
         parts["t"].append(new_t)
-        for name in FLOAT_COLUMNS[1:]:
+        # the data contract's channels, and any other numeric column (a declared
+        # command such as a gripper's) by the same linear interpolation
+        others = [c for c in columns if c not in (*FLOAT_COLUMNS, "episode", "behavior")]
+        for name in (*FLOAT_COLUMNS[1:], *others):
             if name not in columns:
                 continue
             x = np.asarray(columns[name][a:b], dtype=np.float64)

@@ -24,6 +24,7 @@ from behavior_hmm.data._channels import (
     UNITS,
     ChannelSpec,
     channel_from_metadata,
+    command_from_declaration,
 )
 from behavior_hmm.errors import ConfigError, DatasetError
 
@@ -165,20 +166,71 @@ def own_channels_only(names: Collection[str], declared: Collection[str]) -> bool
     return bool(declared) and not any(c in names for c in SENSOR_CHANNELS)
 
 
+#: Most command channels a dataset may declare.
+MAX_COMMANDS: Final[int] = 64
+
+
+def declared_commands(metadata: object, *, file: str | None = None) -> tuple[ChannelSpec, ...]:
+    """The command channels of a dataset, in action order.
+
+    ``metadata["commands"]`` lists them: declarations ``{"name", "unit", "range", ...,
+    "rest"}`` (their ``kind`` is ``"command"``), or the names of registered command
+    channels (``"left"``). Without it, a dataset commands our robots' two wheels,
+    :data:`~behavior_hmm.data._channels.COMMAND_CHANNELS`.
+
+    Raises
+    ------
+    DatasetError
+        For a malformed declaration, a sensor or reserved name, a channel listed twice,
+        or none or more than :data:`MAX_COMMANDS` of them (naming the file).
+    """
+    if not isinstance(metadata, Mapping) or metadata.get("commands") is None:
+        return tuple(CHANNELS[name] for name in COMMAND_CHANNELS)
+    entries = metadata["commands"]
+    if not isinstance(entries, list | tuple) or not 1 <= len(entries) <= MAX_COMMANDS:
+        raise DatasetError(
+            f"'commands' must list 1 to {MAX_COMMANDS} command channels "
+            '({"name", "unit", "range", "rest"} or a known name such as "left")',
+            file=file,
+            field="commands",
+        )
+    specs: list[ChannelSpec] = []
+    for entry in entries:
+        try:
+            spec = command_from_declaration(entry)
+        except (TypeError, ValueError) as exc:  # ConfigError is a ValueError
+            text = " ".join(str(exc).split())[:200]
+            raise DatasetError(
+                f"bad command declaration: {text}", file=file, field="commands"
+            ) from None
+        if any(s.name == spec.name for s in specs):
+            raise DatasetError(
+                f"command '{spec.name}' is listed twice", file=file, field="commands"
+            )
+        specs.append(spec)
+    return tuple(specs)
+
+
 def check_column_names(
     names: Iterable[str],
     *,
     file: str | None = None,
     required: Collection[str] = REQUIRED_COLUMNS,
     extra: Collection[str] = (),
+    commands: Collection[str] = COMMAND_CHANNELS,
 ) -> None:
     """Refuse duplicate, unexpected (with the closest expected name) and missing columns.
 
     ``extra`` are the dataset's declared channels (:func:`declared_channels`): allowed,
-    and required.
+    and required; ``commands`` its command channels (:func:`declared_commands`), which
+    replace the two wheels.
     """
     names = list(names)
-    allowed = (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS, *extra)
+    if tuple(commands) != COMMAND_CHANNELS:
+        required = [c for c in required if c not in COMMAND_CHANNELS]
+        required = [*required, *commands]
+    base = [c for c in REQUIRED_COLUMNS if c not in COMMAND_CHANNELS]
+    allowed = (*base, *commands, *OPTIONAL_COLUMNS, *extra)
     seen: set[str] = set()
     for name in names:
         if name in seen:
@@ -203,7 +255,7 @@ def check_column_names(
             raise DatasetError(message, file=file, field=name)
     if missing:
         raise DatasetError(
-            f"missing column (a dataset needs: {', '.join(REQUIRED_COLUMNS)})",
+            f"missing column (a dataset needs: {', '.join(required)})",
             file=file,
             field=missing[0],
         )
@@ -297,6 +349,8 @@ def canonical_metadata(
             check_behavior_name(name, file=file, field="behaviors")
     if out.get("channels") is not None:
         out["channels"] = [spec.to_metadata() for spec in declared_channels(out, file=file)]
+    if out.get("commands") is not None:
+        out["commands"] = [spec.to_metadata() for spec in declared_commands(out, file=file)]
     check_metadata_values(out, file=file)
     return out
 
@@ -537,7 +591,20 @@ def check_table(
         float64, ``behavior`` as an object array of ``str``; all arrays are fresh copies.
     """
     extras = declared_channels(metadata, file=file)
-    check_column_names(columns.keys(), file=file, extra=[spec.name for spec in extras])
+    commands = declared_commands(metadata, file=file)
+    clash = {spec.name for spec in extras} & {spec.name for spec in commands}
+    if clash:
+        raise DatasetError(
+            f"'{sorted(clash)[0]}' is declared both as a sensor channel and as a command",
+            file=file,
+            field="commands",
+        )
+    check_column_names(
+        columns.keys(),
+        file=file,
+        extra=[spec.name for spec in extras],
+        commands=[spec.name for spec in commands],
+    )
     arrays = {name: _as_array(values, name, file) for name, values in columns.items()}
     n = len(arrays["episode"])
     for name, arr in arrays.items():
@@ -586,8 +653,9 @@ def check_table(
     floats = [
         (name, UNITS[name], VALUE_BOUNDS.get(name))
         for name in FLOAT_COLUMNS
-        if not (own_only and name in SENSOR_CHANNELS)
+        if not (own_only and name in SENSOR_CHANNELS) and name not in COMMAND_CHANNELS
     ]
+    floats += [(spec.name, spec.unit, spec.bounds) for spec in commands]
     floats += [(spec.name, spec.unit, spec.bounds) for spec in extras]
     for name, unit, bounds in floats:
         arr = arrays[name]

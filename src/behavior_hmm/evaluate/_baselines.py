@@ -16,6 +16,7 @@ from behavior_hmm.data import (
     Dataset,
     SignalPipeline,
 )
+from behavior_hmm.data._channels import ChannelSpec, channel
 from behavior_hmm.errors import ConfigError, NotFittedError
 from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
 from behavior_hmm.generators._features import (
@@ -37,7 +38,6 @@ from behavior_hmm.runtime import (
 FloatArray = NDArray[np.float64]
 
 _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
-_ZERO = np.zeros(2)
 
 
 class BehaviorCloning(Estimator):
@@ -132,13 +132,24 @@ class BehaviorCloning(Estimator):
         lengths = dataset.lengths
         raw = dataset.columns(inputs)
         finals = dataset.offsets[1:] - 1
-        goal_channels = tuple(c for c in _DEFAULT_GOALS if c in inputs) or (inputs[0],)
+        specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
+        self.channels_ = {c: specs[c] for c in inputs if c in specs}
+        # the data contract's goal channels; else the dataset's goal on the inputs (a
+        # robot's own channels, e.g. x, y); else the first input
+        declared = [c for c in (dataset.metadata.get("goal") or {}) if c in inputs]
+        goal_channels = (
+            tuple(c for c in _DEFAULT_GOALS if c in inputs) or tuple(declared) or (inputs[0],)
+        )
         # the goal of each episode: where it ends (its own goal, for goal-varying data)
         goal_cols = [inputs.index(c) for c in goal_channels]
         episode_goal = x[finals][:, goal_cols]
         goals = np.repeat(episode_goal, lengths, axis=0)
-        scaler = CommandScaler().fit(dataset.commands)
+        command_specs = tuple(getattr(dataset, "command_specs", ()))
+        scaler = CommandScaler([spec.unit for spec in command_specs] or None)
+        scaler.fit(dataset.commands)
         y = scaler.transform(dataset.commands)
+        self.command_specs_ = command_specs
+        self.command_scales_ = np.asarray(scaler.scales_, dtype=np.float64)
         self.inputs_ = inputs
         self.goal_channels_ = goal_channels
         features = self.feature_layout().offline(x, y, lengths, goals)
@@ -154,8 +165,13 @@ class BehaviorCloning(Estimator):
         self.pipeline_ = pipeline
         self.network_ = net
         self.command_scale_ = float(scaler.scale_)
+        goal = dataset.metadata.get("goal") or {}
         self.default_goal_ = {
-            c: float(np.median(raw[finals, inputs.index(c)])) if c not in _DEFAULT_GOALS else 0.0
+            c: 0.0
+            if c in _DEFAULT_GOALS
+            else float(goal[c])
+            if c in goal
+            else float(np.median(raw[finals, inputs.index(c)]))
             for c in goal_channels
         }
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
@@ -187,7 +203,25 @@ class BehaviorCloning(Estimator):
             goal=len(self.goal_channels_),
             history=int(self.command_history),
             clock=int(self.onset_clock),
+            n_commands=len(self.command_channels),
         )
+
+    @property
+    def command_channels(self) -> tuple[str, ...]:
+        """The command channels the network outputs (default the wheels)."""
+        specs = getattr(self, "command_specs_", None)
+        return ("left", "right") if not specs else tuple(spec.name for spec in specs)
+
+    @property
+    def rest_command(self) -> NDArray[np.float64]:
+        """The command that holds the robot still."""
+        specs = getattr(self, "command_specs_", None)
+        return np.zeros(2) if not specs else np.array([spec.rest for spec in specs])
+
+    def channel_spec(self, name: str) -> ChannelSpec:
+        """The declaration of the input channel ``name`` (the data's, else the registry's)."""
+        own = getattr(self, "channels_", None) or {}
+        return own[name] if name in own else channel(name)
 
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
         """The goal on this model's goal channels (default: where the demos end)."""
@@ -195,7 +229,7 @@ class BehaviorCloning(Estimator):
             raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit first")
         if goal is None:
             return dict(self.default_goal_)
-        checked = check_goal(goal, self.inputs_)
+        checked = check_goal(goal, self.inputs_, getattr(self, "channels_", None))
         return {c: checked.get(c, self.default_goal_[c]) for c in self.goal_channels_}
 
     def generate(
@@ -312,6 +346,11 @@ class BCPolicy:
         self._features = model.feature_layout().online()
         self._features.set_goal(np.asarray(goal_norm, dtype=np.float64))
         self._label = model.label
+        self.channel_specs = {c: model.channel_spec(c) for c in model.inputs_}
+        self.command_channels = tuple(model.command_channels)
+        self._rest = model.rest_command
+        scales = getattr(model, "command_scales_", None)
+        self._scales = model.command_scale_ if scales is None else np.asarray(scales)
 
     def reset(self) -> None:
         self._pipe.reset()
@@ -322,11 +361,11 @@ class BCPolicy:
         self._features.push(x)
         filtered = (x + 1.0) / self._gain + self._lo
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
-        if within_tolerance(values, self.goal):
-            return StepOutput(_ZERO, -1, False, 0, self._label, False, True)
+        if within_tolerance(values, self.goal, 1.0, self.channel_specs):
+            return StepOutput(self._rest, -1, False, 0, self._label, False, True)
         features = self._features
         y = features.commit(self._model.network_.predict_one(features.row(), 0))
-        command = y * self._model.command_scale_
+        command = y * self._scales
         return StepOutput(command, -1, False, 0, self._label, False, False)
 
 

@@ -231,7 +231,7 @@ def _dropout_env(env: Any, level: Level, channel: str, seed: int) -> tuple[NaNDr
     wrapped = NaNDropout(env, channel, seed=seed)
 
     def hook(i: int, start: dict[str, float], reference: dict[str, np.ndarray]) -> dict[str, Any]:
-        at = max(1, round(DROPOUT_AT * len(reference["left"])))
+        at = max(1, round(DROPOUT_AT * len(reference["t"])))
         wrapped.schedule(range(at, at + length))
         return {}
 
@@ -271,7 +271,7 @@ def evaluate_fault(
         push_steps: list[int] = []
 
         def push(i: int, start: dict[str, float], reference: dict[str, np.ndarray]) -> Any:
-            step = max(1, round(fraction * len(reference["left"])))
+            step = max(1, round(fraction * len(reference["t"])))
             push_steps.append(step)
             size = (
                 {"angle": PUSH_ANGLE_DEG}

@@ -19,10 +19,17 @@ def edm(a: ArrayLike, b: ArrayLike) -> float:
     return float(np.sqrt(np.mean((x - y) ** 2)))
 
 
+def _commands(values: ArrayLike, width: int = 2) -> NDArray[np.float64]:
+    """Commands as an (n, k) array: a 2-D array keeps its columns; a flat one is read as
+    rows of ``width`` (our wheels' left, right)."""
+    u = np.asarray(values, dtype=np.float64)
+    return u.reshape(len(u), -1) if u.ndim >= 2 else u.reshape(-1, width)
+
+
 def pad_to_same_length(
     a: NDArray[np.float64], b: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Align two (n, 2) command sequences at t = 0 and pad the shorter with zeros (stopped)."""
+    """Align two (n, k) command sequences at t = 0 and pad the shorter with zeros (stopped)."""
     n = max(len(a), len(b))
     out = []
     for x in (a, b):
@@ -32,38 +39,43 @@ def pad_to_same_length(
     return out[0], out[1]
 
 
-def success_rate(generated: ArrayLike, demonstrated: ArrayLike, scale: float) -> float:
-    """``100 * (1 - EDM)`` of two left/right command sequences, clamped at 0.
+def success_rate(generated: ArrayLike, demonstrated: ArrayLike, scale: float | ArrayLike) -> float:
+    """``100 * (1 - EDM)`` of two command sequences, clamped at 0.
 
     Parameters
     ----------
     generated, demonstrated
-        (n, 2) wheel commands (rad/s) from the same start, aligned at t = 0.
+        (n, k) commands (our wheels: left, right in rad/s) from the same start, aligned
+        at t = 0.
     scale
-        Normalization (rad/s): the largest absolute command in the behavior's training
-        demonstrations (headline) or the motor limit (the ``motor_max`` variant).
+        Normalization: the largest absolute command in the behavior's training
+        demonstrations (headline) or the motor limit (the ``motor_max`` variant); one
+        number, or one per command channel (channels of one unit share one).
     """
-    if not np.isfinite(scale) or scale <= 0:
-        raise ConfigError(f"success-rate scale must be a positive number, got {scale}")
-    gen = np.asarray(generated, dtype=np.float64).reshape(-1, 2) / scale
-    ref = np.asarray(demonstrated, dtype=np.float64).reshape(-1, 2) / scale
+    scales = np.asarray(scale, dtype=np.float64)
+    if not np.all(np.isfinite(scales)) or np.any(scales <= 0) or scales.size == 0:
+        raise ConfigError(f"success-rate scale must be positive numbers, got {scale!r}")
+    width = scales.size if scales.ndim == 1 else 2
+    gen = _commands(generated, width) / (scales if scales.ndim == 0 else scales[None, :])
+    ref = _commands(demonstrated, width) / (scales if scales.ndim == 0 else scales[None, :])
     gen, ref = pad_to_same_length(gen, ref)
     return max(0.0, 100.0 * (1.0 - edm(gen, ref)))
 
 
-def zero_floor(demonstrated: ArrayLike, scale: float) -> float:
+def zero_floor(demonstrated: ArrayLike, scale: float | ArrayLike) -> float:
     """The success rate a robot that never moves gets against ``demonstrated``."""
-    ref = np.asarray(demonstrated, dtype=np.float64).reshape(-1, 2)
-    return success_rate(np.zeros((1, 2)), ref, scale)
+    scales = np.asarray(scale, dtype=np.float64)
+    ref = _commands(demonstrated, scales.size if scales.ndim == 1 else 2)
+    return success_rate(np.zeros((1, ref.shape[1])), ref, scale)
 
 
 def command_jump(commands: ArrayLike) -> float:
-    """Largest change of either wheel command within one control period (rad/s).
+    """Largest change of any command channel within one control period (wheels: rad/s).
 
     Measured along the recorded sequence (a run that stops at its goal records its final
     zero command, so an abrupt stop counts); 0 for fewer than two commands.
     """
-    u = np.asarray(commands, dtype=np.float64).reshape(-1, 2)
+    u = _commands(commands)
     if len(u) < 2:
         return 0.0
     return float(np.max(np.abs(np.diff(u, axis=0))))

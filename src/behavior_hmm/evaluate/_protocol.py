@@ -182,6 +182,9 @@ def evaluate_model(
     except ConfigError:  # a robot without wheel geometry: no motor-limit variant
         motor_max = None
     scale = float(model.command_scale_)
+    # one scale per command channel (channels of one unit share one: the wheels, scale)
+    scales = tuple(float(v) for v in getattr(model, "command_scales_", (scale, scale)))
+    commands = tuple(getattr(model, "command_channels", ("left", "right")))
     runners = {"model": model, **dict(baselines or {})}
     tasks = [
         _Case(
@@ -193,9 +196,10 @@ def evaluate_model(
             seed=seed,
             noise=noise,
             push=push,
-            scale=scale,
+            scale=scale if len(set(scales)) == 1 else scales,
             motor_max=motor_max,
             keep_traces=keep_traces,
+            commands=commands,
             external=teacher is not None or reference is not None,
             recorded=recorded[i],
         )
@@ -278,9 +282,10 @@ class _Case:
     seed: int
     noise: float
     push: Mapping[str, float] | None
-    scale: float
+    scale: float | tuple[float, ...]
     motor_max: float | None
     keep_traces: bool
+    commands: tuple[str, ...] = ("left", "right")
     external: bool = False
     recorded: dict[str, np.ndarray] | None = None
 
@@ -331,9 +336,9 @@ def _run_case(
     extra = dict(case_options(i, full, demo)) if case_options is not None else {}
     push_step = None
     if case.push is not None:
-        push_step, scheduled = _scheduled_push(case.push, len(demo["left"]), seed, i)
+        push_step, scheduled = _scheduled_push(case.push, len(demo["t"]), seed, i)
         extra["pushes"] = [*extra.get("pushes", []), scheduled]
-    ref = np.column_stack([demo["left"], demo["right"]])
+    ref = np.column_stack([demo[c] for c in case.commands])
     floor = zero_floor(ref, case.scale)
     floor_motor = None if case.motor_max is None else zero_floor(ref, case.motor_max)
     scores: dict[str, dict[str, Any]] = {}
@@ -465,7 +470,8 @@ def _refused(runner: Any, start: Mapping[str, float], goal: Any, why: str) -> An
     names = [*start, *(c for c in goal_now if c not in start)]
     trace = Trace(goal=goal_now, start=dict(start), channels=names)
     trace.t.append(0.0)
-    trace.commands.append(np.zeros(2))
+    trace.command_channels = list(runner.command_channels)
+    trace.commands.append(np.asarray(runner.rest_command, dtype=np.float64))
     trace.component.append("")
     trace.plan_changed.append(False)
     trace.final_observation = np.array([start.get(c, np.nan) for c in names], dtype=np.float64)
@@ -500,7 +506,7 @@ def _recorded_cases(
             f"the reference dataset has no {', '.join(missing)} column to start from "
             f"(start channels: {', '.join(names)})"
         )
-    columns = ["t", *dataset.sensor_channels, "left", "right"]
+    columns = ["t", *dataset.sensor_channels, *dataset.command_channels]
     table = dataset.columns(columns)
     starts: list[dict[str, float]] = []
     demos: list[dict[str, np.ndarray]] = []

@@ -36,18 +36,19 @@ DEFAULT_ONSET_CLOCK = 96
 def command_features(commands: FloatArray, lengths: Lengths, history: int) -> FloatArray:
     """Previous ``history`` normalized commands per row (zeros before an episode starts).
 
-    Row ``t`` holds ``[u[t-history], ..., u[t-1]]`` flattened (left, right per step),
-    the efference copy a motion generator reads beside its sensor window.
+    Row ``t`` holds ``[u[t-history], ..., u[t-1]]`` flattened (every command channel per
+    step: left, right for our wheels), the efference copy a motion generator reads beside
+    its sensor window.
     """
-    n = commands.shape[0]
-    out = np.zeros((n, 2 * history), dtype=np.float64)
+    n, k = commands.shape[0], commands.shape[1]
+    out = np.zeros((n, k * history), dtype=np.float64)
     start = 0
     for length in lengths:
         stop = start + int(length)
         for lag in range(1, history + 1):
-            col = 2 * (history - lag)
+            col = k * (history - lag)
             if length > lag:
-                out[start + lag : stop, col : col + 2] = commands[start : stop - lag]
+                out[start + lag : stop, col : col + k] = commands[start : stop - lag]
         start = stop
     return out
 
@@ -91,6 +92,8 @@ class FeatureLayout:
         Onset clock length in control cycles (0: no clock).
     delta_scale
         Normalized command change a generator output of 1 stands for.
+    n_commands
+        Command channels (our wheels: 2): the width of one efference-copy step.
     """
 
     n_channels: int
@@ -100,19 +103,21 @@ class FeatureLayout:
     delta: bool = False
     clock: int = 0
     delta_scale: float = 1.0
+    n_commands: int = 2
 
     @property
     def width(self) -> int:
         """Columns of a row."""
-        delta = 2 if self.delta and self.history > 0 else 0
+        k = self.n_commands
+        delta = k if self.delta and self.history > 0 else 0
         clock = 1 if self.clock > 0 else 0
-        return self.n_channels * self.window + self.goal + 2 * self.history + delta + clock
+        return self.n_channels * self.window + self.goal + k * self.history + delta + clock
 
     def offline(
         self, x: FloatArray, y: FloatArray, lengths: Lengths, goals: FloatArray | None = None
     ) -> FloatArray:
         """Rows of whole demonstrations: ``x`` (n, channels) normalized readings, ``y``
-        (n, 2) normalized commands, ``goals`` (n, goal) per row (when ``goal > 0``)."""
+        (n, n_commands) normalized commands, ``goals`` (n, goal) per row (when ``goal > 0``)."""
         parts = [make_windows(x, lengths, self.window)]
         if self.goal:
             if goals is None or goals.shape != (x.shape[0], self.goal):
@@ -122,8 +127,9 @@ class FeatureLayout:
             parts.append(command_features(y, lengths, self.history))
             if self.delta:
                 # previous command and its last change (in units of delta_scale)
+                k = self.n_commands
                 prev2 = command_features(y, lengths, 2)
-                parts.append(np.clip((prev2[:, 2:] - prev2[:, :2]) / self.delta_scale, -1, 1))
+                parts.append(np.clip((prev2[:, k:] - prev2[:, :k]) / self.delta_scale, -1, 1))
         if self.clock > 0:
             parts.append(onset_features(lengths, self.clock))
         return np.hstack(parts) if len(parts) > 1 else parts[0]
@@ -147,7 +153,8 @@ class OnlineFeatures:
         self._n = layout.n_channels * layout.window
         self._buf = np.zeros((layout.n_channels, layout.window))
         self._row = np.zeros(layout.width)
-        self._h = self._n + layout.goal + 2 * layout.history  # end of the efference copy
+        self._u = layout.n_commands  # columns of one command
+        self._h = self._n + layout.goal + self._u * layout.history  # end of the efference copy
         self._delta = bool(layout.delta and layout.history > 0)
         self._scale = float(layout.delta_scale)
         self.reset()
@@ -185,16 +192,16 @@ class OnlineFeatures:
 
     def commit(self, out: FloatArray) -> FloatArray:
         """The normalized command for generator output ``out``; recorded as sent."""
-        row, h = self._row, self._h
+        row, h, k = self._row, self._h, self._u
         if self._delta:
             y = np.clip(
-                row[h - 2 : h] + self._scale * out, -DELTA_COMMAND_BOUND, DELTA_COMMAND_BOUND
+                row[h - k : h] + self._scale * out, -DELTA_COMMAND_BOUND, DELTA_COMMAND_BOUND
             )
-            row[h : h + 2] = np.clip((y - row[h - 2 : h]) / self._scale, -1.0, 1.0)
+            row[h : h + k] = np.clip((y - row[h - k : h]) / self._scale, -1.0, 1.0)
         else:
             y = out
         if self.layout.history:
             hist = row[self._n + self.layout.goal : h]
-            hist[:-2] = hist[2:]
-            hist[-2:] = y
+            hist[:-k] = hist[k:]
+            hist[-k:] = y
         return y

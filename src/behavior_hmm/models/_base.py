@@ -15,11 +15,14 @@ from numpy.typing import NDArray
 from behavior_hmm._estimator import Estimator
 from behavior_hmm.data._channels import (
     CHANNELS,
+    COMMAND_CHANNELS,
     CONTROL_PERIOD,
     SENSOR_CHANNELS,
     ChannelSpec,
     channel,
     channel_from_metadata,
+    command_from_declaration,
+    known_or_declared,
 )
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import _modelfile
@@ -39,6 +42,8 @@ class LearnedBehavior(Estimator):
 
     inputs_: tuple[str, ...]
     channels_: dict[str, ChannelSpec]
+    command_specs_: tuple[ChannelSpec, ...]
+    command_scales_: NDArray[np.float64]
     pipeline_: Any
     observations_: Any
     hmm_: Any
@@ -146,6 +151,62 @@ class LearnedBehavior(Estimator):
             state.get("train_data"), "train_data", optional=True
         )
         self.provenance_ = _check_provenance(state.get("provenance") or {})
+
+    @property
+    def command_channels(self) -> tuple[str, ...]:
+        """The command channels the model outputs, in action order (default the wheels)."""
+        specs = getattr(self, "command_specs_", None)
+        return COMMAND_CHANNELS if specs is None else tuple(s.name for s in specs)
+
+    @property
+    def rest_command(self) -> NDArray[np.float64]:
+        """The command that holds the robot still (each command channel's ``rest``)."""
+        specs = getattr(self, "command_specs_", None) or [CHANNELS[c] for c in COMMAND_CHANNELS]
+        return np.array([spec.rest for spec in specs], dtype=np.float64)
+
+    def _learn_commands(self, dataset: Any, scales: Any) -> None:
+        """The dataset's command channels and each one's normalization scale."""
+        specs = getattr(dataset, "command_specs", None)
+        self.command_specs_ = (
+            tuple(specs) if specs else tuple(CHANNELS[c] for c in COMMAND_CHANNELS)
+        )
+        k = len(self.command_specs_)
+        self.command_scales_ = np.broadcast_to(np.asarray(scales, dtype=np.float64), (k,)).copy()
+
+    def _commands_state(self) -> dict[str, Any]:
+        """The command channels and scales as the model file stores them."""
+        return {
+            "commands": [spec.to_metadata() for spec in self.command_specs_],
+            "command_scales": [float(v) for v in self.command_scales_],
+        }
+
+    def _restore_commands(self, state: Mapping[str, Any]) -> None:
+        """The command channels and scales of a model file (older files: the wheels)."""
+        entries = state.get("commands")
+        if entries is None:
+            self.command_specs_ = tuple(CHANNELS[c] for c in COMMAND_CHANNELS)
+        else:
+            if not isinstance(entries, list) or not 1 <= len(entries) <= 64:
+                raise ModelFileError("commands must list 1 to 64 command channels")
+            specs = []
+            for entry in entries:
+                if not isinstance(entry, Mapping):
+                    raise ModelFileError("commands: each entry must be a declaration")
+                try:
+                    specs.append(command_from_declaration(entry))
+                except ConfigError as err:
+                    raise ModelFileError(f"commands: {err}") from None
+            if len({s.name for s in specs}) != len(specs):
+                raise ModelFileError("commands: a channel is listed twice")
+            self.command_specs_ = tuple(specs)
+        k = len(self.command_specs_)
+        scale = _modelfile.check_number(state["command_scale"], "command_scale", positive=True)
+        scales = state.get("command_scales", [scale] * k)
+        if not isinstance(scales, list) or len(scales) != k:
+            raise ModelFileError("command_scales must hold one scale per command channel")
+        self.command_scales_ = np.array(
+            [_modelfile.check_number(v, "command_scales", positive=True) for v in scales]
+        )
 
     def channel_spec(self, name: str) -> ChannelSpec:
         """The declaration of the input channel ``name`` (the model's own, else the registry's)."""
@@ -266,7 +327,8 @@ PROVENANCE_KEYS = (
 def dataset_hash(dataset: Any) -> str:
     """SHA-256 of a dataset's arrays and metadata (the same data gives the same hash)."""
     digest = hashlib.sha256()
-    for name in ("t", *getattr(dataset, "sensor_channels", SENSOR_CHANNELS), "left", "right"):
+    commands = getattr(dataset, "command_channels", COMMAND_CHANNELS)
+    for name in ("t", *getattr(dataset, "sensor_channels", SENSOR_CHANNELS), *commands):
         digest.update(name.encode())
         digest.update(np.ascontiguousarray(dataset.columns([name])).tobytes())
     digest.update(np.ascontiguousarray(dataset.lengths, dtype=np.int64).tobytes())
@@ -290,9 +352,7 @@ def _restore_channels(value: Any, inputs: tuple[str, ...]) -> dict[str, ChannelS
             raise ModelFileError(f"channels: {err}") from None
         if spec.name != name or spec.kind != "sensor":
             raise ModelFileError(f"channels: declaration {spec.name!r} does not match {name!r}")
-        known = CHANNELS.get(name)
-        same = known is not None and known.to_metadata() == spec.to_metadata()
-        out[name] = known if same and known is not None else spec
+        out[name] = known_or_declared(spec)
     return out
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART
-from behavior_hmm.data import DEFAULT_CUTOFF_HZ, Dataset, SignalPipeline
+from behavior_hmm.data import DEFAULT_CUTOFF_HZ, CommandScaler, Dataset, SignalPipeline
 from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
@@ -250,7 +250,20 @@ class CBLM(LearnedBehavior):
         self.observations_ = obs
         self.__dict__.pop("_latest_physical", None)  # cache of category_values
         self.hmm_ = hmm
+        wanted = tuple(dataset.command_channels)
+        for name, component in zip(names, components, strict=True):
+            if tuple(component.command_channels) != wanted:
+                raise ConfigError(
+                    f"component {name} commands {', '.join(component.command_channels)}; the "
+                    f"demonstrations command {', '.join(wanted)}"
+                )
         self.command_scale_ = float(np.max(np.abs(dataset.commands))) or 1.0
+        units = [spec.unit for spec in dataset.command_specs]
+        if len(set(units)) > 1:  # a scale per unit, as an SBLM's (CommandScaler)
+            scales = CommandScaler(units).fit(dataset.commands).scales_
+        else:
+            scales = np.full(len(units), self.command_scale_)
+        self._learn_commands(dataset, scales)
         self.delta_scale_ = _largest_step(dataset.commands, lengths)
         self.handover_cycles_ = _handover_cycles(
             dataset.commands, states, lengths, self.command_scale_
@@ -356,6 +369,7 @@ class CBLM(LearnedBehavior):
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
             "channels": self._channels_state(),
+            **self._commands_state(),
             "train_data": self.train_data_,
             "provenance": dict(self.provenance_),
         }
@@ -432,6 +446,7 @@ class CBLM(LearnedBehavior):
             state.get("handover_cycles", 0), "handover_cycles", 0, _modelfile.MAX_STEPS
         )
         model._restore_common(state, inputs)
+        model._restore_commands(state)
         return model
 
 

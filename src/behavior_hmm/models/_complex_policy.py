@@ -22,8 +22,6 @@ from behavior_hmm.runtime._policy import StepOutput
 
 FloatArray = NDArray[np.float64]
 
-_ZERO = np.zeros(2)
-
 
 class ComplexPolicy(GoalTracking, RateLimited):
     """A CBLM's policy: plans over its own observation categories, delegates to components.
@@ -89,8 +87,17 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 child.start_confirm_cycles = 0
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
+        # per command channel: the step limit in each channel's own scale (wheels: equal)
+        relative = np.asarray(model.command_scales_) / float(model.command_scale_)
+        self._rates = self._rate * relative
+        self._rest_command = model.rest_command
         self._limit_motion = False  # the components limit their own commands
         self.reset()
+
+    def _done(self, category: int, novel: bool) -> StepOutput:
+        """The step that ends the run at the goal: the rest command, done."""
+        label = self._label or self.name
+        return StepOutput(self._rest_command, category, novel, self._active, label, False, True)
 
     def bind(self, channels: Sequence[str]) -> None:
         """Fit every component's policy to a robot's ``channels`` (see SimplePolicy.bind)."""
@@ -195,7 +202,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
             # a component ended at rest: wait as long as the teacher rests at a switch
             self._pause -= 1
             label = self._label or self.name
-            return StepOutput(_ZERO, category, novel, self._active, label, False, False)
+            return StepOutput(
+                self._rest_command, category, novel, self._active, label, False, False
+            )
         if at_goal and self._settles_in_goal():
             # the running component heads for a goal inside the tolerance: it finishes
             # (at rest, braking into it) rather than the robot stopping at speed
@@ -205,9 +214,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         if at_goal and (category in self._stop_set or self._handed_back or braked):
             # the goal category with the goal's tolerance (thesis + DESIGN §5), or a
             # component has just finished with the complex goal's tolerance holding
-            return StepOutput(
-                _ZERO, category, novel, self._active, self._label or self.name, False, True
-            )
+            return self._done(category, novel)
         self._handed_back = False
         # A finished component whose goal no longer holds (e.g. after a push) runs again.
         for comp, sub_goal in list(self._finished.items()):
@@ -226,9 +233,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         if not segments:
             if self._running() is None:
                 if at_goal:  # nothing left to run and the goal holds
-                    return StepOutput(
-                        _ZERO, category, novel, self._active, self._label or self.name, False, True
-                    )
+                    return self._done(category, novel)
                 if not self._may_repair:  # thesis: stand still until the step limit
                     return StepOutput(
                         self._rest(), category, novel, self._active, self.name, False, False
@@ -314,7 +319,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         cannot start, nothing left to run) would otherwise drop the wheels to zero at
         once, however fast the robot was moving (thesis preset: zero).
         """
-        return self._ramped_down() if self._rate > 0.0 else _ZERO
+        return self._ramped_down() if self._rate > 0.0 else self._rest_command
 
     def _settles_in_goal(self) -> bool:
         """Whether the running component may finish inside the goal (``settle_cycles``)."""
@@ -451,7 +456,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self._child.carry(rest)  # should it run again, it goes on from this command
             return StepOutput(rest, category, novel, self._active, self.name, changed, False)
         if out.done:
-            if not np.any(out.command):  # it ended at rest: the teacher's pause follows
+            if self._at_rest_command(out.command):  # it ended at rest: the teacher's pause
                 self._pause = self._handover
             self._finished[self._active] = dict(self._child.goal)
             self._handed_back = True

@@ -19,7 +19,6 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-_ZERO = np.zeros(2)
 
 #: The channels the stop-at-rest rule of an SBLM reads (``stop_at_rest``).
 REST_CHANNELS: tuple[str, ...] = ("linear_velocity", "angular_velocity")
@@ -46,6 +45,7 @@ class GoalTracking:
     model: Any
     goal: dict[str, float]
     channel_specs: dict[str, ChannelSpec]
+    command_channels: tuple[str, ...]
     goal_category: int
     _tolerance: float
     _goal_candidates: NDArray[np.int64]
@@ -63,6 +63,8 @@ class GoalTracking:
         # the declaration of each channel the model reads (tolerance, wrap): the control
         # loop judges the goal with them too
         self.channel_specs = {c: model.channel_spec(c) for c in model.inputs_}
+        #: the command channels its commands are for, in action order
+        self.command_channels = tuple(model.command_channels)
         memo: dict[tuple[tuple[str, float], ...], NDArray[np.int64]]
         memo = self.__dict__.setdefault("_goal_memo", {})
         key = tuple(self.goal.items())
@@ -120,6 +122,11 @@ class RateLimited:
     """
 
     _rate: float
+    #: the rate limit of each command channel (its unit per cycle); ``_rate`` is the
+    #: largest, and 0 switches the limit off
+    _rates: FloatArray
+    #: the command that holds the robot still (each command channel's ``rest``)
+    _rest_command: FloatArray
     _limit_motion: bool
     _last: FloatArray
     _stopping: StepOutput | None
@@ -143,14 +150,20 @@ class RateLimited:
         return True
 
     def _limit_reset(self) -> None:
-        self._last = np.zeros(2)
+        self._last = self._rest_command.copy()
         self._stopping = None
         self._label = ""
 
     def _ramped_down(self) -> FloatArray:
         """The command one step of the rate limit closer to rest (and now the last one)."""
-        self._last = self._last + np.clip(-self._last, -self._rate, self._rate)
+        self._last = self._last + np.clip(
+            self._rest_command - self._last, -self._rates, self._rates
+        )
         return self._last
+
+    def _at_rest_command(self, command: FloatArray) -> bool:
+        """Whether ``command`` is the one that holds the robot still."""
+        return bool(np.array_equal(command, self._rest_command))
 
     def carry(self, command: FloatArray) -> None:
         """Continue from ``command`` (rad/s): a complex behavior's switch does not jolt."""
@@ -161,9 +174,10 @@ class RateLimited:
             self._last = out.command
             return out
         if out.done and self._stopping is None:
-            fast = float(np.max(np.abs(self._last))) > SOFT_STOP_CYCLES * self._rate
+            away = np.abs(self._last - self._rest_command)
+            fast = bool(np.any(away > SOFT_STOP_CYCLES * self._rates))
             if fast and not self.braking:
-                self._last = np.zeros(2)
+                self._last = self._rest_command.copy()
                 return out  # moving fast at the goal: stop now
             # the ramp down still finishes the last component's motion: keep its name
             self._stopping = out._replace(component=out.component or self._label)
@@ -171,10 +185,10 @@ class RateLimited:
             self._label = out.component
         if self._stopping is not None:
             u = self._ramped_down()
-            return self._stopping._replace(command=u, done=not np.any(u))
+            return self._stopping._replace(command=u, done=self._at_rest_command(u))
         u = out.command
         if self._limit_motion:
-            u = self._last + np.clip(u - self._last, -self._rate, self._rate)
+            u = self._last + np.clip(u - self._last, -self._rates, self._rates)
         self._last = u
         return out._replace(command=u)
 
@@ -230,7 +244,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prim_miss = self._prim_live.mismatch  # 1 - score of every primitive (live)
         self._hmm = model.hmm_
         self._gens = model.generators_
-        self._scale = model.command_scale_
+        self._scale = np.asarray(model.command_scales_, dtype=np.float64)
         norm = model.pipeline_.normalizer
         self._lo = np.array(norm.lo, dtype=np.float64)
         self._gain = np.array(norm.gain, dtype=np.float64)
@@ -249,6 +263,8 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prior = self._log_pi
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(model.delta_scale_) * float(model.command_scale_)
+        self._rates = rate * float(model.delta_scale_) * np.asarray(model.command_scales_)
+        self._rest_command = model.rest_command
         self._limit_motion = True
         self._limit_reset()
         self._brakes = bool(getattr(model, "goal_braking", False)) and self._rate > 0.0
@@ -321,7 +337,8 @@ class SimplePolicy(GoalTracking, RateLimited):
         history.append(filtered)
         if len(history) > BRAKE_RATE_CYCLES + 1:
             del history[0]
-        speed = float(np.max(np.abs(self._last)))
+        away = np.abs(self._last - self._rest_command)
+        speed = float(np.max(away))
         if not self._braking and speed > 0.0 and len(history) > BRAKE_RATE_CYCLES:
             if self._command_rates is not None:  # learned: the rate the command gives
                 rates = self._last @ self._command_rates
@@ -329,13 +346,14 @@ class SimplePolicy(GoalTracking, RateLimited):
                 rates = (filtered - history[0]) / BRAKE_RATE_CYCLES
             # the filtered readings trail a moving robot: where it is now
             now = filtered + rates * self._lag
-            self._braking = self._rest_at_goal(now, rates, speed / self._rate + 1.0)
+            ramp = float(np.max(away / self._rates))  # cycles to rest at the rate limit
+            self._braking = self._rest_at_goal(now, rates, ramp + 1.0)
             self._brake_hold = 0
         if not self._braking:
             return self._limited(out)
         u = self._ramped_down()
         self._label = out.component
-        if np.any(u):
+        if not self._at_rest_command(u):
             return out._replace(command=u)
         self._brake_hold += 1
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
@@ -415,9 +433,11 @@ class SimplePolicy(GoalTracking, RateLimited):
                 if not self._started and self._confirmed < self.start_confirm_cycles:
                     # not moved yet: hold still while the (filtered) readings confirm it
                     self._confirmed += 1
-                    return StepOutput(_ZERO, category, novel, -1, self.name, False, False)
+                    rest = self._rest_command
+                    return StepOutput(rest, category, novel, -1, self.name, False, False)
                 self._started = True
-                return StepOutput(_ZERO, category, novel, self._state, self.name, False, True)
+                rest = self._rest_command
+                return StepOutput(rest, category, novel, self._state, self.name, False, True)
         try:
             state = self._decode(category)
         except UnreachableGoalError:

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART, suggest_dcm_scale
 from behavior_hmm.data import (
+    COMMAND_CHANNELS,
     DEFAULT_CUTOFF_HZ,
     SENSOR_CHANNELS,
     CommandScaler,
@@ -185,9 +186,14 @@ class SBLM(LearnedBehavior):
     generators_ : MotionGenerators
     command_scale_ : float
         Largest absolute wheel command (rad/s) in the (nominal) training demonstrations.
-    command_rates_ : ndarray of shape (2, n_inputs)
-        Change of each filtered input per control cycle (its unit) per rad/s of the left
-        and the right wheel command, fitted on the demonstrations (goal braking).
+    command_rates_ : ndarray of shape (n_commands, n_inputs)
+        Change of each filtered input per control cycle (its unit) per unit of each
+        command (rad/s of the left and the right wheel), fitted on the demonstrations
+        (goal braking).
+    command_specs_ : tuple of ChannelSpec
+        The command channels the generators output, in action order (the dataset's).
+    command_scales_ : ndarray of shape (n_commands,)
+        Each command's normalization scale (channels of one unit share one).
     rest_values_ : dict
         Median final reading of each input channel over the demonstrations.
     default_goal_ : dict
@@ -360,7 +366,9 @@ class SBLM(LearnedBehavior):
             smoothing=self.smoothing,
             path_self_loops=cast(PathSelfLoops, self.path_self_loops),
         ).fit(nominal_states, observations, lengths_nom)
-        scaler = CommandScaler().fit(dataset.commands[nominal])
+        units = [spec.unit for spec in dataset.command_specs]
+        scaler = CommandScaler(units).fit(dataset.commands[nominal])
+        self._learn_commands(dataset, scaler.scales_)
         y = np.clip(scaler.transform(dataset.commands), -1.0, 1.0)
         prev = command_features(y, lengths, 1)
         step = y - prev
@@ -406,7 +414,12 @@ class SBLM(LearnedBehavior):
         self.delta_scale_ = delta_scale
         self._record_provenance(dataset)  # and channels_, the inputs' declarations
         self.command_rates_ = command_rates(
-            x, dataset.commands, lengths, pipeline, [self.channel_spec(c) for c in inputs]
+            x,
+            dataset.commands,
+            lengths,
+            pipeline,
+            [self.channel_spec(c) for c in inputs],
+            wheels=self.command_channels == COMMAND_CHANNELS,
         )
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.stops_ = np.array(raw[finals], dtype=np.float64)
@@ -434,6 +447,7 @@ class SBLM(LearnedBehavior):
             delta=self.generator_output == "delta",
             clock=int(self.onset_clock),
             delta_scale=delta_scale,
+            n_commands=len(self.command_channels),
         )
 
     def _cobart_overrides(
@@ -572,6 +586,7 @@ class SBLM(LearnedBehavior):
             "max_steps": self.max_steps_,
             "behavior": self.behavior_,
             "channels": self._channels_state(),
+            **self._commands_state(),
             "train_data": self.train_data_,
             "provenance": dict(self.provenance_),
         }
@@ -624,6 +639,7 @@ class SBLM(LearnedBehavior):
         prim = _cobart_from(state["primitives"], arrays, "prim", len(inputs))
         obs = _cobart_from(state["observations"], arrays, "obs", len(inputs))
         gens = MotionGenerators.from_arrays(_prefixed(arrays, "gen"), **state["generators"])
+        model._restore_commands(state)
         if hmm.n_states_ != prim.n_categories_ or hmm.n_observations_ != obs.n_categories_:
             raise ModelFileError("HMM sizes do not match the CobART categories")
         if gens.n_primitives_ != prim.n_categories_:
@@ -632,6 +648,8 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("generator window differs from the primitives' window")
         if gens.n_features_in_ != model.feature_layout(len(inputs), int(prim.window)).width:
             raise ModelFileError("generator inputs do not match the model's parameters")
+        if gens.n_outputs_ != len(model.command_channels):
+            raise ModelFileError("generator outputs do not match the command channels")
         model.inputs_ = inputs
         model.pipeline_ = pipeline
         model.primitives_ = prim
@@ -651,8 +669,10 @@ class SBLM(LearnedBehavior):
             model.stops_ = np.array(stops, dtype=np.float64)
         if "command_rates" in arrays:  # files written before it was learned have none
             rates = _modelfile.check_array(arrays, "command_rates", ndim=2)
-            if rates.shape != (2, len(inputs)):
-                raise ModelFileError("array 'command_rates' must be 2 x the number of inputs")
+            if rates.shape != (len(model.command_channels), len(inputs)):
+                raise ModelFileError(
+                    "array 'command_rates' must be commands x the number of inputs"
+                )
             if np.abs(rates).max() > _modelfile.MAX_ABS_VALUE:
                 raise ModelFileError("array 'command_rates' holds absurd values")
             model.command_rates_ = np.array(rates, dtype=np.float64)
@@ -695,11 +715,13 @@ def command_rates(
     lengths: np.ndarray,
     pipeline: SignalPipeline,
     inputs: Sequence[ChannelSpec],
+    wheels: bool = True,
 ) -> np.ndarray:
     """How each wheel command moves each input: least squares over the demonstrations.
 
-    Row ``w`` (left, right), column ``c``: the change of filtered input ``c`` per control
-    cycle (its physical unit, an angle wrapped) per rad/s of wheel ``w``, fitted on every
+    Row ``w`` (a command channel: left, right for our wheels), column ``c``: the change
+    of filtered input ``c`` per control cycle (its physical unit, an angle wrapped) per
+    unit of command ``w`` (rad/s of a wheel), fitted on every
     pair of consecutive rows of an episode (the command of a row against the change to
     the next). Goal braking predicts from it where a ramp to rest would end, from the
     command alone rather than from a noisy measured rate.
@@ -715,12 +737,16 @@ def command_rates(
     u = np.asarray(commands, dtype=np.float64)[keep]
     # in the wheels' common and differential parts, which a behavior rarely mixes (an
     # approach barely yaws): a small ridge keeps the unexcited part's gain near zero
-    # instead of letting two nearly equal columns cancel each other with huge gains
-    basis = np.array([[0.5, -0.5], [0.5, 0.5]])  # (left, right) -> (common, differential)
+    # instead of letting two nearly equal columns cancel each other with huge gains;
+    # other commands (joints, a gripper) in their own axes, with the same ridge
+    if wheels:
+        basis = np.array([[0.5, -0.5], [0.5, 0.5]])  # (left, right) -> (common, differential)
+    else:
+        basis = np.eye(u.shape[1])
     z = u @ basis
     gram = z.T @ z
     ridge = 1e-3 * max(float(np.trace(gram)), 1e-12)
-    coef = np.linalg.solve(gram + ridge * np.eye(2), z.T @ change[keep])
+    coef = np.linalg.solve(gram + ridge * np.eye(len(gram)), z.T @ change[keep])
     return np.asarray(basis @ coef, dtype=np.float64)
 
 

@@ -2,7 +2,8 @@
 
 Safety rules of the loop (docs/usage.md, "Sensor faults and stopping"):
 
-* the robot is always commanded to stop (``env.step(np.zeros(2))``) when a run ends,
+* the robot is always commanded to stop (``env.step(rest)``: each command channel's
+  ``rest``, zero wheel speed on our robots) when a run ends,
   whatever ends it: the goal, the step limit, a sensor fault, or an exception raised
   by the controller or the env (KeyboardInterrupt included), which then propagates;
 * a non-finite reading on a channel the controller reads is replaced by that channel's
@@ -132,10 +133,10 @@ def hold_steps(fault_hold_s: float, control_period: float) -> int:
     return math.floor(hold / control_period + 1e-9)
 
 
-def _stop(env: Any) -> None:
-    """Best effort: command zero wheel speed; an error here is swallowed."""
+def _stop(env: Any, rest: FloatArray) -> None:
+    """Best effort: command the robot to rest; an error here is swallowed."""
     try:
-        env.step(np.zeros(2))
+        env.step(rest)
     except Exception:  # the original exception must propagate, not this one
         pass
 
@@ -185,6 +186,12 @@ def run_policy(
     """
     robot = env if isinstance(env, Robot) else Robot(env)
     dt = robot.control_period
+    wanted = tuple(getattr(policy, "command_channels", robot.command_channels))
+    if wanted != robot.command_channels:
+        raise ConfigError(
+            f"the behavior commands {', '.join(wanted)}; the robot takes "
+            f"{', '.join(robot.command_channels)}"
+        )
     bind = getattr(policy, "bind", None)
     if callable(bind):  # e.g. rules that read channels only some robots have
         bind(robot.channels)
@@ -196,7 +203,12 @@ def run_policy(
     try:
         reading, true, pose = robot.reset(seed=seed, options=options)
         policy.reset()
-        trace = Trace(goal=dict(policy.goal), start=dict(start or {}), channels=list(names))
+        trace = Trace(
+            goal=dict(policy.goal),
+            start=dict(start or {}),
+            channels=list(names),
+            command_channels=list(robot.command_channels),
+        )
         # a policy may declare channels the registry does not know (a model's own)
         trace.channel_specs = {**robot.channel_specs, **(getattr(policy, "channel_specs", {}))}
         reason = "step_limit"
@@ -213,7 +225,7 @@ def run_policy(
                 trace.novel.append(False)
                 trace.state.append(-1)
                 trace.component.append("")
-                trace.commands.append(np.zeros(2))
+                trace.commands.append(robot.rest.copy())
                 trace.plan_changed.append(False)
                 trace.held.append(0)
                 reason = "sensor_fault"
@@ -234,11 +246,11 @@ def run_policy(
             reading, true, pose = robot.step(out.command)
         # Always command a stop at the end; judge the outcome on the state after it.
         commanded = True
-        _, true, pose = robot.step(np.zeros(2))
+        _, true, pose = robot.step(robot.rest)
         stopped = True
     finally:
         if commanded and not stopped:
-            _stop(robot.env)
+            _stop(robot.env, robot.rest)
     trace.final_observation = true
     trace.final_pose = None if pose is None else np.asarray(pose, dtype=np.float64)
     trace.reason = reason

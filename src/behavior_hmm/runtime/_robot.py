@@ -187,12 +187,23 @@ class Robot:
         ]
         self.control_period = control_period(env)
         self.start_channels = _start_channels(base, self.channels)
+        #: The robot's command channels in action order (version 2: its
+        #: ``command_channels``; version 1: the two wheels).
+        self.command_specs: tuple[ChannelSpec, ...] = _declared_commands(base)
+        k = len(self.command_specs)
         action = getattr(env, "action_space", None)
-        if action is not None and tuple(getattr(action, "shape", ())) != (2,):
+        if action is not None and tuple(getattr(action, "shape", ())) != (k,):
+            listed = ", ".join(spec.name for spec in self.command_specs)
             raise ConfigError(
-                f"the action_space must be Box(shape=(2,)) (left, right wheel speeds in rad/s), "
-                f"got {action}"
+                f"the action_space must be Box(shape=({k},)) ({listed}), got {action}"
             )
+        #: The command that holds the robot still (each command channel's ``rest``).
+        self.rest = np.array([spec.rest for spec in self.command_specs], dtype=np.float64)
+
+    @property
+    def command_channels(self) -> tuple[str, ...]:
+        """Names of the command channels, in action order."""
+        return tuple(spec.name for spec in self.command_specs)
 
     @property
     def spec(self) -> RobotSpec:
@@ -282,7 +293,8 @@ class Robot:
         return self._outcome(obs, info)
 
     def step(self, command: FloatArray) -> tuple[FloatArray, FloatArray, Any]:
-        """Send ``(left, right)`` rad/s for one control period; as :meth:`reset`."""
+        """Send one command per command channel (``left``, ``right`` rad/s for wheels)
+        for one control period; as :meth:`reset`."""
         obs, _, _, _, info = self.env.step(np.asarray(command, dtype=np.float64))
         return self._outcome(obs, info)
 
@@ -309,6 +321,30 @@ def _declared_channels(declared: Any, base: Any) -> dict[str, ChannelSpec]:
             raise ConfigError(f"sensor channel {spec.name!r} is declared twice")
         out[spec.name] = spec
     return out
+
+
+def _declared_commands(base: Any) -> tuple[ChannelSpec, ...]:
+    """``env.unwrapped.command_channels``: mappings ``{"name", "unit", "range", "rest",
+    "label"}`` in action order (version 2); absent, the wheels ``left``, ``right``."""
+    from behavior_hmm.data._channels import COMMAND_CHANNELS, command_from_declaration
+
+    declared = getattr(base, "command_channels", None)
+    if declared is None:
+        return tuple(CHANNELS[c] for c in COMMAND_CHANNELS)
+    if isinstance(declared, str | bytes | Mapping):
+        raise ConfigError(
+            f"{type(base).__name__}.command_channels must be a sequence of mappings "
+            '({"name", "unit", "range"}), one per action entry'
+        )
+    out: list[ChannelSpec] = []
+    for entry in declared:
+        spec = command_from_declaration(entry)
+        if any(s.name == spec.name for s in out):
+            raise ConfigError(f"command channel {spec.name!r} is declared twice")
+        out.append(spec)
+    if not out:
+        raise ConfigError(f"{type(base).__name__}.command_channels is empty")
+    return tuple(out)
 
 
 def _start_channels(base: Any, channels: Sequence[str]) -> tuple[str, ...] | None:

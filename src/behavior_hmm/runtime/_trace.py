@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import SENSOR_CHANNELS, ChannelSpec, channel
+from behavior_hmm.data._channels import COMMAND_CHANNELS, SENSOR_CHANNELS, ChannelSpec, channel
 
 
 @dataclass
@@ -31,7 +31,8 @@ class Trace:
     novel : (n,) whether the observation was below vigilance
     state : (n,) active motion primitive (SBLM) or component index (CBLM)
     component : (n,) name of the active component ("" for an SBLM's own steps)
-    commands : (n, 2) wheel commands sent (rad/s)
+    commands : (n, k) commands sent, in ``command_channels`` order (wheels: rad/s)
+    command_channels : the command channels (default ``left``, ``right``)
     plan_changed : (n,) True where the plan's first state changed
     held : (n,) channels whose non-finite reading was replaced by their last good
         value at each step (the sensor-fault policy; 0 almost always)
@@ -47,6 +48,7 @@ class Trace:
     """
 
     channels: list[str] = field(default_factory=lambda: list(SENSOR_CHANNELS))
+    command_channels: list[str] = field(default_factory=lambda: list(COMMAND_CHANNELS))
     pose: list[NDArray[np.float64]] = field(default_factory=list)
     final_pose: NDArray[np.float64] | None = None
     t: list[float] = field(default_factory=list)
@@ -75,7 +77,8 @@ class Trace:
     @property
     def command_array(self) -> NDArray[np.float64]:
         """Commands as an (n, 2) array (rad/s)."""
-        return np.asarray(self.commands, dtype=np.float64).reshape(-1, 2)
+        k = len(self.command_channels)
+        return np.asarray(self.commands, dtype=np.float64).reshape(-1, k)
 
     @property
     def reading_array(self) -> NDArray[np.float64]:
@@ -137,8 +140,8 @@ class Trace:
             poses = self.pose_array
             for j, name in enumerate(("x", "y", "yaw")):
                 cols[name] = poses[:, j]
-        cols["left"] = cmds[:, 0]
-        cols["right"] = cmds[:, 1]
+        for j, name in enumerate(self.command_channels):
+            cols[name] = cmds[:, j]
         cols["observation"] = np.asarray(self.observation, dtype=np.int64)
         cols["novel"] = np.asarray(self.novel, dtype=bool)
         cols["state"] = np.asarray(self.state, dtype=np.int64)
@@ -161,6 +164,7 @@ class Trace:
             "plan_changes": self.n_plan_changes,
             "held_readings": self.held_readings,
             "fault_channels": list(self.fault_channels),
+            "command_channels": list(self.command_channels),
         }
 
     def write(self, path: str | os.PathLike[str]) -> None:

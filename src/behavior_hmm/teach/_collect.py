@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from behavior_hmm.data import SENSOR_CHANNELS, ChannelSpec, Dataset
+from behavior_hmm.data import COMMAND_CHANNELS, SENSOR_CHANNELS, ChannelSpec, Dataset
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.teach._behaviors import Start, behavior_spec
 from behavior_hmm.teach._demonstrator import DISTURBED_CHANNELS, Teacher, TeacherConfig
@@ -281,6 +281,8 @@ def collect_with_teacher(
     }
     if specs:
         metadata["channels"] = [spec.to_metadata() for spec in specs]
+    if robot.command_channels != COMMAND_CHANNELS:
+        metadata["commands"] = [spec.to_metadata() for spec in robot.command_specs]
     if robot.derived:
         metadata["derived"] = list(robot.derived)
     return Dataset.from_episodes(episodes, metadata=metadata)

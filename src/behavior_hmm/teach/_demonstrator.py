@@ -163,6 +163,11 @@ class Teacher:
         self.env = env
         self.robot = Robot(env)
         self.robot.require(REQUIRED_CHANNELS, "our teacher")
+        if self.robot.command_channels != ("left", "right"):
+            raise ConfigError(
+                f"our teacher drives two wheels (left, right); this robot takes "
+                f"{', '.join(self.robot.command_channels)}: give your own (--teacher)"
+            )
         spec = self.robot.spec
         self.config = config or TeacherConfig().scaled_to(spec)
         self._half_track_over_r = spec.track_width / (2.0 * spec.wheel_radius)

@@ -76,8 +76,7 @@ def teacher_demonstration(
     """Run ``teacher`` in ``env`` from ``start`` to ``goal``: the demonstration's columns.
 
     Returns ``t`` (s), one column per robot channel (as the robot reads it, noisy if the
-    env adds noise) and the commands as ``left`` and ``right`` (the first and second
-    command channel).
+    env adds noise) and one per command channel (``left``, ``right`` for wheels).
 
     Raises
     ------
@@ -96,7 +95,8 @@ def teacher_demonstration(
     where = ", ".join(f"{k}={v:g}" for k, v in start.items())
     for _ in range(max_steps):
         info = {"true_observation": robot.as_dict(true), "pose": pose}
-        command, done = _checked(teacher.step(robot.as_dict(reading), info), name, where)
+        step = teacher.step(robot.as_dict(reading), info)
+        command, done = _checked(step, name, where, len(robot.command_channels))
         if done:
             break
         readings.append(reading)
@@ -107,7 +107,7 @@ def teacher_demonstration(
             f"{name} did not finish from {where} within {max_steps} steps "
             f"({max_steps * robot.control_period:g} s); its step() never returned done"
         )
-    robot.step(np.zeros(2))  # the robot is always commanded to stop at the end
+    robot.step(robot.rest)  # the robot is always commanded to stop at the end
     if not readings:
         raise ConfigError(f"{name} was done at once from {where}: no demonstration to record")
     table = np.asarray(readings, dtype=np.float64)
@@ -115,12 +115,12 @@ def teacher_demonstration(
     columns: dict[str, np.ndarray] = {"t": np.arange(len(table)) * robot.control_period}
     for j, channel in enumerate(robot.channels):
         columns[channel] = table[:, j]
-    columns["left"] = u[:, 0]
-    columns["right"] = u[:, 1]
+    for j, channel in enumerate(robot.command_channels):
+        columns[channel] = u[:, j]
     return columns
 
 
-def _checked(out: Any, name: str, where: str) -> tuple[np.ndarray, bool]:
+def _checked(out: Any, name: str, where: str, k: int) -> tuple[np.ndarray, bool]:
     try:
         command, done = out
     except (TypeError, ValueError):
@@ -128,8 +128,10 @@ def _checked(out: Any, name: str, where: str) -> tuple[np.ndarray, bool]:
             f"{name}.step() must return (command, done), got {type(out).__name__}"
         ) from None
     u = np.asarray(command, dtype=np.float64).reshape(-1)
-    if u.shape != (2,):
-        raise ConfigError(f"{name}.step() returned {u.size} commands from {where}; expected 2")
+    if u.shape != (k,):
+        raise ConfigError(
+            f"{name}.step() returned {u.size} commands from {where}; the robot takes {k}"
+        )
     if not all(math.isfinite(float(v)) for v in u):
         raise ConfigError(f"{name}.step() returned a non-finite command from {where}")
     return u, bool(done)

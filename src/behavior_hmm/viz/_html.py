@@ -208,26 +208,28 @@ def _run_figure(
     axes = fig.subplots(len(heights), 1, sharex=True, height_ratios=heights)
     t = np.asarray(trace.t, dtype=np.float64)
     marker = "o" if len(t) == 1 else None  # a refused run is one point, not a line
-    td = np.arange(len(demo["left"])) * CONTROL_PERIOD
+    names = list(getattr(trace, "command_channels", ("left", "right")))
+    td = np.arange(len(demo[names[0]])) * CONTROL_PERIOD
     for ax, name in zip(axes, steered, strict=False):
         if name in demo:
             ax.plot(td, demo[name], "k--", lw=1.1, label="teacher")
         ax.plot(t, _series(trace, name), "C2", lw=1.5, marker=marker, label="generated")
         if name in trace.goal:
             ax.axhline(trace.goal[name], color="0.4", lw=0.8, ls=":", label="goal")
-        spec = CHANNELS.get(name)
+        spec = (getattr(trace, "channel_specs", None) or {}).get(name) or CHANNELS.get(name)
         ax.set_ylabel(f"{name} ({spec.unit})" if spec is not None else name)
         ax.legend(loc="best", fontsize=7.5, ncol=3, frameon=False)
         ax.grid(alpha=0.3)
     ax = axes[len(steered)]
     commands = trace.command_array
     if len(commands) != len(t):
-        commands = np.zeros((len(t), 2))
-    for j, side in enumerate(("left", "right")):
-        ax.plot(td, demo[side], f"C{j}--", lw=1.0)
-        ax.plot(t, commands[:, j], f"C{j}", lw=1.4, marker=marker, label=side)
+        commands = np.zeros((len(t), len(names)))
+    for j, side in enumerate(names):
+        if side in demo:
+            ax.plot(td[: len(demo[side])], demo[side], f"C{j % 10}--", lw=1.0)
+        ax.plot(t, commands[:, j], f"C{j % 10}", lw=1.4, marker=marker, label=side)
     ax.plot([], [], "k--", lw=1.0, label="teacher")
-    ax.set_ylabel("wheels (rad/s)")
+    ax.set_ylabel("wheels (rad/s)" if names == ["left", "right"] else "commands")
     ax.legend(loc="best", fontsize=7.5, ncol=3, frameon=False)
     ax.grid(alpha=0.3)
     _timeline(axes[-1], t, *_active(trace, kind), colours)

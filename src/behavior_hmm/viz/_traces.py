@@ -94,7 +94,7 @@ def run_title(trace: Any, behavior: str | None = None) -> str:
 
 
 def run_series(trace: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Times (n,), readings (n, 4) and commands (n, 2) of a run, all of one length.
+    """Times (n,), readings (n, 4) and commands (n, k) of a run, all of one length.
 
     Readings are in ``SENSOR_CHANNELS`` order whatever the robot's channel order (NaN
     for a channel the robot does not have). A run refused before any motion (an
@@ -114,7 +114,7 @@ def run_series(trace: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             readings[:, j] = raw[:, names.index(name)]
     commands = trace.command_array
     if len(commands) != len(t):
-        commands = np.zeros((len(t), 2))
+        commands = np.zeros((len(t), commands.shape[1]))
     return t, readings, commands
 
 
@@ -316,6 +316,7 @@ def plot_trace(
     marker = "o" if len(t) == 1 else None  # a one-step run is a point, not a line
     own = list(getattr(trace, "channels", SENSOR_CHANNELS))
     channels = [c for c in trace.goal if c in own] or [c for c in ("angle", "distance") if c in own]
+    specs = getattr(trace, "channel_specs", None) or {}
     rows: list[tuple[str, np.ndarray, Sequence[str]]] = []
     if len(trace.state) == len(t) and len(t):  # a refused run has no active state
         names = active_names(trace)
@@ -332,7 +333,7 @@ def plot_trace(
         len(channels) + 2, ratios, fig, axes, (8.0, 2.1 * (len(channels) + 1) + 0.7 + 0.7 * band)
     )
     for ax, name in zip(panels, channels, strict=False):
-        unit = UNITS.get(name, "")
+        unit = specs[name].unit if name in specs else UNITS.get(name, "")
         ax.plot(t, channel_series(trace, name), marker=marker, lw=1.6, label="model")
         if name in demo:
             ax.plot(demo["t"], demo[name], label="teacher", **TEACHER_STYLE)
@@ -342,14 +343,18 @@ def plot_trace(
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
     ax = panels[len(channels)]
-    ax.plot(t, commands[:, 0], color="C0", marker=marker, lw=1.4, label="left (model)")
-    ax.plot(t, commands[:, 1], color="C1", marker=marker, lw=1.4, label="right (model)")
-    if "left" in demo and "right" in demo:
-        style = {**TEACHER_STYLE, "lw": 1.0}
-        ax.plot(demo["t"], demo["left"], label="left (teacher)", **{**style, "color": "C0"})
-        ax.plot(demo["t"], demo["right"], label="right (teacher)", **{**style, "color": "C1"})
+    names = list(getattr(trace, "command_channels", ("left", "right")))
+    style = {**TEACHER_STYLE, "lw": 1.0}
+    for j, name in enumerate(names):
+        color = f"C{j % 10}"
+        ax.plot(t, commands[:, j], color=color, marker=marker, lw=1.4, label=f"{name} (model)")
+        if name in demo:
+            ax.plot(demo["t"], demo[name], label=f"{name} (teacher)", **{**style, "color": color})
     ax.axhline(0.0, color="0.3", lw=0.6)
-    ax.set_ylabel("wheel speed (rad/s)")
+    units = {UNITS.get(name, "") for name in names}
+    wheels = names == ["left", "right"]
+    unit = units.pop() if len(units) == 1 else ""
+    ax.set_ylabel("wheel speed (rad/s)" if wheels else f"command ({unit})" if unit else "command")
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8, ncol=2)
     ax = panels[-1]
