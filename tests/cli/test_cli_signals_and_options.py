@@ -246,3 +246,26 @@ def test_help_still_works(invoke: Invoke) -> None:
     assert "Usage: " in result.stdout and "--seed" in result.stdout
     bare = invoke([])  # no command: the help, as before
     assert "Usage: " in bare.stdout and bare.stderr == ""
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
+def test_ctrl_c_while_the_package_registers_its_envs_is_one_line() -> None:
+    """Ctrl-C while ``behavior_hmm`` imports gymnasium, before the entry point runs."""
+    code = (
+        "import importlib.abc, os, signal, sys\n"
+        "class Interrupt(importlib.abc.MetaPathFinder):\n"
+        "    def find_spec(self, name, path, target=None):\n"
+        "        if name == 'gymnasium':\n"
+        "            os.kill(os.getpid(), signal.SIGINT)\n"
+        "        return None\n"
+        "sys.meta_path.insert(0, Interrupt())\n"
+        "sys.argv[0] = 'behavior-hmm'\n"
+        "from behavior_hmm.cli import main\n"
+        "sys.exit(main())\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, "--version"], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip() == "interrupted"
+    assert "Traceback" not in done.stderr
