@@ -26,6 +26,8 @@ from behavior_hmm.errors import (
 )
 from behavior_hmm.hmm._counting import (
     Counting,
+    add_counts,
+    add_transitions,
     count_density,
     count_emissions,
     count_transitions,
@@ -107,6 +109,11 @@ class BehaviorHMM(Estimator):
     start_prob_first_ : ndarray of float64, shape (N,)
         Distribution of the first state of an episode (for reference; π is the
         density, which is the right prior for a plan made mid-behavior).
+
+    Notes
+    -----
+    The counts are sums over episodes, so :meth:`partial_fit` adds new episodes to a
+    fitted model exactly: the tables equal those of :meth:`fit` on all the episodes.
 
     Examples
     --------
@@ -192,29 +199,121 @@ class BehaviorHMM(Estimator):
         self
         """
         self._validate_params()
-        s = _as_labels(states, "states")
-        o = _as_labels(observations, "observations")
-        if s.size != o.size:
-            raise DatasetError(
-                f"states has {s.size} samples but observations has {o.size}", field="observations"
-            )
-        if s.size == 0:
-            raise DatasetError("no samples to fit a Behavior-HMM on", field="states")
-        lens = _as_lengths(lengths, s.size)
+        s, o, lens = _checked_data(states, observations, lengths)
         n = _n_labels(s, self.n_states, "states", "n_states")
         m = _n_labels(o, self.n_observations, "observations", "n_observations")
+        counts = self._count(s, o, lens, n, m)
+        self._set_tables(counts, {key: self._normalize(key, c) for key, c in counts.items()})
+        return self
 
+    def partial_fit(
+        self, states: ArrayLike, observations: ArrayLike, lengths: ArrayLike | None = None
+    ) -> BehaviorHMM:
+        """Add the counts of new episodes to the model's (``fit`` if not fitted yet).
+
+        The new episodes are counted as :meth:`fit` counts them and added to the stored
+        counts (``A_counts_``, ``B_counts_``, ``C_counts_``, ``pi_counts_``,
+        ``start_counts_``); the probabilities and log tables are then normalized from
+        the totals under the current ``smoothing``. The result is identical, bit for
+        bit, to :meth:`fit` on the earlier and the new episodes together (with the same
+        parameters and the same sizes ``n_states_``, ``n_observations_``): with
+        ``counting="changes"`` the one self transition of each state or category is
+        kept once, not added again. An episode cannot be split across calls (the new
+        ones start afresh: no transition is counted from the last sample of the
+        earlier data).
+
+        The tables grow with the data: a state or observation category index beyond
+        ``n_states_ - 1`` / ``n_observations_ - 1`` (a new primitive, a new category)
+        appends rows and columns of zero counts before the new counts are added. With
+        ``n_states`` / ``n_observations`` set (e.g. raised with ``set_params``) the
+        tables take that size instead, as in :meth:`fit`; it may not be smaller than
+        the fitted size. Planning and decoding caches (goal trees, Viterbi messages,
+        plans) are dropped, so :meth:`plan` and :meth:`viterbi` answer as a model
+        fitted on everything.
+
+        Parameters
+        ----------
+        states
+            State index per control cycle of the new episodes.
+        observations
+            Observation category index per control cycle, same length.
+        lengths
+            Control cycles per new episode, summing to the number of new samples.
+            ``None`` = one episode.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        DatasetError
+            The new data are invalid, as :meth:`fit` reports it (nothing is changed).
+        ConfigError
+            An invalid parameter; ``counting`` or ``self_transitions`` changed since
+            the counts were made (they would mix two rules: call :meth:`fit`);
+            ``n_states`` / ``n_observations`` smaller than the fitted tables.
+
+        Examples
+        --------
+        >>> hmm = BehaviorHMM().fit([0, 0, 1], [0, 1, 1])
+        >>> hmm.partial_fit([1, 2], [1, 2]).n_states_
+        3
+        >>> hmm.plan(0, 2).observations
+        (0, 1, 2)
+        """
+        if not hasattr(self, "log_A_"):
+            return self.fit(states, observations, lengths)
+        self._validate_params()
+        s, o, lens = _checked_data(states, observations, lengths)
+        n = _grown_size(s, self.n_states, self.n_states_, "states", "n_states")
+        m = _grown_size(
+            o, self.n_observations, self.n_observations_, "observations", "n_observations"
+        )
+        rule = (str(self.counting), bool(self.self_transitions))
+        counted = getattr(self, "_counted_with", rule)
+        if counted != rule:
+            raise ConfigError(
+                f"the counts were made with counting={counted[0]!r}, "
+                f"self_transitions={counted[1]!r}, now {rule[0]!r}, {rule[1]!r}: they cannot "
+                "be added up; call fit to count everything again"
+            )
+        new = self._count(s, o, lens, n, m)
+        old = {
+            "A": self.A_counts_,
+            "B": self.B_counts_,
+            "C": self.C_counts_,
+            "pi": self.pi_counts_,
+            "start_prob_first": self.start_counts_,
+        }
+        counts: dict[str, NDArray[np.int64]] = {}
+        for key, c in new.items():
+            if key in ("A", "C"):
+                counts[key] = add_transitions(
+                    old[key], c, counting=self.counting, self_transitions=rule[1]
+                )
+            else:
+                counts[key] = add_counts(old[key], c)
+        self._set_tables(counts, {key: self._normalize(key, c) for key, c in counts.items()})
+        return self
+
+    def _count(
+        self,
+        s: NDArray[np.int64],
+        o: NDArray[np.int64],
+        lens: NDArray[np.int64],
+        n: int,
+        m: int,
+    ) -> dict[str, NDArray[np.int64]]:
+        """Count tables of checked data, keyed like :data:`_TABLES` (n states, m categories)."""
         kw: dict[str, Any] = {"counting": self.counting, "self_transitions": self.self_transitions}
-        counts = {
+        return {
             "A": count_transitions(s, n, lens, **kw),
             "B": count_emissions(s, o, n, m),
             "C": count_transitions(o, m, lens, **kw),
             "pi": count_density(s, n),
             "start_prob_first": count_density(s[episode_starts(lens)], n),
         }
-        probs = {key: self._normalize(key, c) for key, c in counts.items()}
-        self._set_tables(counts, probs)
-        return self
 
     def _normalize(self, key: str, counts: NDArray[np.generic]) -> NDArray[np.float64]:
         structural = key in ("A", "C") and not self.self_transitions
@@ -237,6 +336,8 @@ class BehaviorHMM(Estimator):
         self.start_prob_first_ = np.array(probs["start_prob_first"], dtype=np.float64)
         # Kept as given so that to_arrays() round-trips bit for bit (exp(log p) != p).
         self._probs = {k: np.array(probs[k], dtype=np.float64) for k in ("A", "B", "C", "pi")}
+        # the rule the counts were made with: partial_fit adds counts only under the same one
+        self._counted_with: tuple[str, bool] = (str(self.counting), bool(self.self_transitions))
         self._reset_caches()
 
     def _check_fitted(self) -> None:
@@ -580,6 +681,21 @@ class BehaviorHMM(Estimator):
 
 
 # ---------------------------------------------------------------- validation
+def _checked_data(
+    states: ArrayLike, observations: ArrayLike, lengths: ArrayLike | None
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """States, observations and episode lengths checked as ``fit`` needs them."""
+    s = _as_labels(states, "states")
+    o = _as_labels(observations, "observations")
+    if s.size != o.size:
+        raise DatasetError(
+            f"states has {s.size} samples but observations has {o.size}", field="observations"
+        )
+    if s.size == 0:
+        raise DatasetError("no samples to fit a Behavior-HMM on", field="states")
+    return s, o, _as_lengths(lengths, s.size)
+
+
 def _as_labels(values: ArrayLike, name: str) -> NDArray[np.int64]:
     a = np.asarray(values)
     if a.ndim != 1:
@@ -618,6 +734,25 @@ def _n_labels(labels: NDArray[np.int64], declared: int | None, field: str, param
         row = int(np.argmax(labels >= declared))
         raise DatasetError(f"label {top} does not fit {param}={declared}", row=row, field=field)
     return int(declared)
+
+
+def _grown_size(
+    labels: NDArray[np.int64], declared: int | None, current: int, field: str, param: str
+) -> int:
+    """Table size for ``partial_fit``: the fitted size, grown to fit the new labels.
+
+    With ``declared`` (the parameter) set, that size, as in ``fit``: the labels must fit
+    it (the same :class:`DatasetError` as ``fit``) and it may not shrink the tables.
+    """
+    if declared is None:
+        return max(current, int(labels.max()) + 1)
+    size = _n_labels(labels, declared, field, param)
+    if size < current:
+        raise ConfigError(
+            f"{param}={size} is smaller than the fitted model's {current}: tables cannot "
+            "shrink; call fit to start again"
+        )
+    return size
 
 
 def _checked_arrays(

@@ -87,6 +87,60 @@ def count_density(states: IntArray, n_states: int) -> IntArray:
     return np.bincount(states, minlength=n_states).astype(np.int64)
 
 
+def grown(counts: NDArray[np.generic], shape: tuple[int, ...]) -> IntArray:
+    """``counts`` as int64, enlarged to ``shape`` with zeros (new trailing rows/columns).
+
+    Every axis of ``shape`` must be at least as long as that of ``counts``: tables only
+    grow (new states or observation categories get the highest indices).
+    """
+    c = np.asarray(counts, dtype=np.int64)
+    if c.ndim != len(shape) or any(a > b for a, b in zip(c.shape, shape, strict=True)):
+        raise ValueError(f"cannot grow a table of shape {c.shape} to {shape}")
+    out = np.zeros(shape, dtype=np.int64)
+    out[tuple(slice(0, k) for k in c.shape)] = c
+    return out
+
+
+def add_counts(old: NDArray[np.generic], new: IntArray) -> IntArray:
+    """Counts of two disjoint sets of episodes added (``old`` grown to ``new``'s shape).
+
+    Exact for B, π and the episode starts, and for A and C counted with ``"steps"`` or
+    without self transitions: every count is a sum over episodes.
+    """
+    return grown(old, new.shape) + new
+
+
+def add_transitions(
+    old: NDArray[np.generic],
+    new: IntArray,
+    *,
+    counting: Counting,
+    self_transitions: bool,
+) -> IntArray:
+    """Transition counts (A or C) of two disjoint sets of episodes, combined exactly.
+
+    The counts off the diagonal add up. With ``counting="changes"`` and
+    ``self_transitions`` the diagonal is not a sum: :func:`count_transitions` puts one
+    self transition on every label seen in the data, so the combined diagonal is 1 where
+    the label was seen in either part (the element-wise maximum). The result equals
+    ``count_transitions`` of both parts' episodes together.
+
+    Parameters
+    ----------
+    old
+        Counts of the earlier episodes, shape (n_old, n_old) with ``n_old <= n``.
+    new
+        Counts of the new episodes, shape (n, n), made with the same rule.
+    counting, self_transitions
+        The rule both were counted with (see :func:`count_transitions`).
+    """
+    total = add_counts(old, new)
+    if counting == "changes" and self_transitions:
+        seen = np.maximum(np.diagonal(grown(old, new.shape)), np.diagonal(new))
+        np.fill_diagonal(total, seen)
+    return total
+
+
 def normalize(counts: NDArray[np.generic], smoothing: float, *, zero_diagonal: bool) -> FloatArray:
     """Turn counts into probabilities along the last axis.
 
