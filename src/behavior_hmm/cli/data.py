@@ -93,6 +93,17 @@ ChannelOption = Annotated[
     ),
 ]
 
+CommandOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--command",
+        help="The robot's command channels in action order, replacing our two wheels: "
+        "NAME:UNIT:LO:HI[:REST] for a channel of yours (REST: the command that holds the "
+        "robot still, default 0), or a known name (left, right); e.g. --command left "
+        "--command right --command grip:m/s:-0.05:0.05 (repeatable)",
+    ),
+]
+
 
 def max_noise() -> float:
     """The largest ``--noise`` sigma a recorded dataset can pass validation with.
@@ -757,6 +768,8 @@ def import_bag(
     derive: DeriveOption = None,
     map_file: MapFileOption = None,
     behavior: BehaviorOption = None,
+    channel: ChannelOption = None,
+    command: CommandOption = None,
 ) -> None:
     """Convert ROS 1 / ROS 2 bags into a validated dataset (needs the 'bags' extra).
 
@@ -764,7 +777,9 @@ def import_bag(
     16 ms control period by their time stamps in the bag (from the first instant
     every mapped topic has a message, each holding its latest message). Each bag is
     one episode unless --split-gap or --episode-topic splits it. Our channels are in
-    deg (angle) and m (distance); --unit says what yours are in.
+    deg (angle) and m (distance); --unit says what yours are in. --channel declares a
+    robot's own sensor channel and --command the command channels (e.g. the wheels
+    and a gripper), each mapped from a topic with --map NAME=TOPIC:FIELD.
 
     Example: behavior-hmm import-bag run.bag --map angle=/object_bearing:data
     --unit angle=rad --map distance=/object_distance:data --twist /cmd_vel
@@ -796,6 +811,8 @@ def import_bag(
             episode_topic=counter,
             derive=derived,
             metadata=_metadata(behavior, options),
+            channels=channel_options(channel or []),
+            commands=command_options(command) if command else None,
         )
     data.write(dataset, out)
     _wrote(out, dataset)
@@ -819,12 +836,18 @@ def import_lerobot(
     resample: ResampleOption = False,
     map_file: MapFileOption = None,
     behavior: BehaviorOption = None,
+    channel: ChannelOption = None,
+    command: CommandOption = None,
 ) -> None:
     """Convert a LeRobot dataset (v3.0 layout, local files only) into a dataset.
 
-    A folder written by export-lerobot needs no mapping. Frames are read from
-    data/**/*.parquet; time is 'timestamp', episodes 'episode_index'. Our channels are
-    in deg (angle) and m (distance); --unit says what yours are in.
+    A folder written by export-lerobot needs no mapping: its declared channels and
+    commands come back with it. Frames are read from data/**/*.parquet; time is
+    'timestamp', episodes 'episode_index'. Our channels are in deg (angle) and m
+    (distance); --unit says what yours are in. --channel declares a robot's own sensor
+    channel and --command the command channels in action order, each found by name
+    among the features' elements (observation.state, action) or mapped with --map
+    NAME=FEATURE:ELEMENT.
 
     Example: behavior-hmm import-lerobot their_robot --map angle=observation.state:bearing
     --map distance=observation.state:range --map left=action:0 --map right=action:1
@@ -845,6 +868,8 @@ def import_lerobot(
             derive=derived,
             resample=resample or bool(options.get("resample")),
             metadata=_metadata(behavior, options),
+            channels=channel_options(channel or []),
+            commands=command_options(command) if command else None,
         )
     data.write(dataset, out)
     _wrote(out, dataset)
@@ -874,7 +899,10 @@ def export_lerobot(
     """Write datasets or generated traces as a LeRobot dataset (v3.0 layout).
 
     observation.state holds distance, linear_velocity, angle, angular_velocity
-    (m, m/s, deg, deg/s), action the wheel speeds left, right (rad/s); complex
+    (m, m/s, deg, deg/s) and the channels the dataset declares (or those only, for a
+    robot of its own), action its commands (by default the wheel speeds left, right,
+    rad/s), each named in meta/info.json; the declarations travel in
+    meta/behavior_hmm.json, so import-lerobot gives the same dataset back. Complex
     demonstrations name each frame's sub-behavior as its task. A trace
     (generate -o) is one episode of the readings the controller saw and its commands;
     several inputs are numbered one after another. FOLDER must be new or empty; nothing

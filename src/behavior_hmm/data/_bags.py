@@ -29,7 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm._safe_read import MAX_SIDE_FILE_BYTES, check_nesting, check_regular, read_text
-from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS
+from behavior_hmm.data._channels import (
+    COMMAND_CHANNELS,
+    CONTROL_PERIOD,
+    SENSOR_CHANNELS,
+    ChannelSpec,
+)
+from behavior_hmm.data._csv import _extra_channels, _extra_unit
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._transform import DataImportWarning, finish, parse_derive
 from behavior_hmm.data._units import (
@@ -37,10 +43,17 @@ from behavior_hmm.data._units import (
     unit_factor,
     wrap_imported_angles,
 )
-from behavior_hmm.data._validate import MAX_CONTROL_PERIOD, MAX_ROWS, check_table, suggest
+from behavior_hmm.data._validate import (
+    MAX_CONTROL_PERIOD,
+    MAX_ROWS,
+    check_table,
+    declared_commands,
+    suggest,
+)
 from behavior_hmm.errors import BehaviorHMMError, ConfigError, DatasetError
 
-#: Channels a bag can fill (time and episode come from the bag itself).
+#: Channels a bag can fill without declarations (time and episode come from the bag
+#: itself); ``channels`` and ``commands`` declare others.
 BAG_CHANNELS: Final[tuple[str, ...]] = (*SENSOR_CHANNELS, *COMMAND_CHANNELS)
 
 #: The field read when a ``--map`` or ``--episode-topic`` gives a topic only (std_msgs).
@@ -469,6 +482,8 @@ def import_bags(
     derive: Collection[str] | str = (),
     metadata: Mapping[str, Any] | None = None,
     period: float = CONTROL_PERIOD,
+    channels: Sequence[ChannelSpec | Mapping[str, Any]] | None = None,
+    commands: Sequence[ChannelSpec | Mapping[str, Any] | str] | None = None,
 ) -> Dataset:
     """Read ROS 1 / ROS 2 bags into a validated :class:`Dataset` (module docstring).
 
@@ -478,8 +493,9 @@ def import_bags(
         ROS 1 ``.bag`` files and/or ROS 2 bag folders (``metadata.yaml`` + storage).
     mapping
         Channel -> ``TOPIC:FIELD`` (``/object_bearing:data``, ``/odom:twist.twist.linear.x``;
-        a topic alone reads its ``data`` field). Every sensor channel and ``left`` and
-        ``right`` need one, unless derived (``derive``) or given by ``twist``.
+        a topic alone reads its ``data`` field). Every sensor channel (declared ones
+        included) and every command channel need one, unless derived (``derive``) or
+        given by ``twist``.
     units
         Channel -> the unit its field is in (as for CSV: ``angle="rad"``,
         ``angular_velocity="rad/s"``, ``left="rpm"``, ...).
@@ -503,6 +519,17 @@ def import_bags(
         bag and start time.
     period
         The alignment period (s); default the control period.
+    channels
+        A robot's own sensor channels, as for :func:`import_csv` (:class:`ChannelSpec`
+        objects or declarations ``{"name", "unit", "range"}``), after any ``metadata``
+        declares; each mapped from a topic, read in its declared unit. With declared
+        channels and none of the data contract's four mapped or derived, the dataset
+        holds the robot's own channels only.
+    commands
+        The command channels in action order, replacing our two wheels: declarations
+        ``{"name", "unit", "range", "rest"}`` or known names (``"left"``); e.g. the
+        wheels and a gripper. Each is mapped from a topic (``twist`` gives ``left`` and
+        ``right``).
 
     Raises
     ------
@@ -515,17 +542,32 @@ def import_bags(
         raise ConfigError("no bag given")
     derived = parse_derive(derive)
     units = dict(units or {})
+    declared: dict[str, Any] = dict(metadata or {})
+    extras = _extra_channels(declared, channels, "metadata")
+    if commands is not None:
+        declared["commands"] = [
+            spec.to_metadata() for spec in declared_commands({"commands": list(commands)})
+        ]
+    command_specs = declared_commands(declared)
+    command_names = tuple(spec.name for spec in command_specs)
+    mappable = (*SENSOR_CHANNELS, *(spec.name for spec in extras), *command_names)
     sources: dict[str, TopicField] = {}
     for channel, spec in mapping.items():
-        if channel not in BAG_CHANNELS:
+        if channel not in mappable:
             raise ConfigError(
-                f"--map {channel}: unknown channel (channels: {', '.join(BAG_CHANNELS)}; time "
-                f"and episodes come from the bag){suggest(channel, BAG_CHANNELS)}"
+                f"--map {channel}: unknown channel (channels: {', '.join(mappable)}; time "
+                "and episodes come from the bag; declare a robot's own with --channel or "
+                f"--command){suggest(channel, mappable)}"
             )
         sources[channel] = spec if isinstance(spec, TopicField) else parse_topic_field(spec)
     twist_src = None
     if twist is not None:
         twist_src = twist if isinstance(twist, TopicField) else _twist_source(twist)
+        if not set(COMMAND_CHANNELS) <= set(command_names):
+            raise ConfigError(
+                f"--twist gives the wheels {', '.join(COMMAND_CHANNELS)}, which are not among "
+                f"the commands ({', '.join(command_names)}); add --command left --command right"
+            )
         for wheel in COMMAND_CHANNELS:
             if wheel in sources:
                 raise ConfigError(f"--twist gives '{wheel}'; do not --map it too")
@@ -539,12 +581,15 @@ def import_bags(
         if name in sources:
             raise ConfigError(f"--derive {name}: it is mapped too (--map {name}=...); choose one")
     covered = set(sources) | set(derived) | (set(COMMAND_CHANNELS) if twist_src else set())
-    missing = [c for c in BAG_CHANNELS if c not in covered]
+    # a robot's own channels only: none of the data contract's four mapped or derived
+    own_only = bool(extras) and not any(c in covered for c in SENSOR_CHANNELS)
+    needed = [c for c in mappable if not (own_only and c in SENSOR_CHANNELS)]
+    missing = [c for c in needed if c not in covered]
     if missing:
         hints = []
         if any(c in ("linear_velocity", "angular_velocity") for c in missing):
             hints.append("derive velocities with --derive")
-        if any(c in COMMAND_CHANNELS for c in missing):
+        if any(c in COMMAND_CHANNELS for c in missing) and twist_src is None:
             hints.append("take the wheels from a twist with --twist TOPIC")
         raise ConfigError(
             f"no topic for channel(s) {', '.join(missing)}: map each with --map "
@@ -555,7 +600,17 @@ def import_bags(
             raise ConfigError(
                 f"--unit {name}: only mapped channels take a unit (mapped: {', '.join(sources)})"
             )
-    factors = {name: unit_factor(name, unit) for name, unit in units.items()}
+    own_specs = [*extras, *(s for s in command_specs if s.name not in COMMAND_CHANNELS)]
+    factors = {
+        name: _extra_unit(own, unit)
+        if (own := next((s for s in own_specs if s.name == name), None))
+        else unit_factor(name, unit)
+        for name, unit in units.items()
+    }
+    # what the columns are, for validating each bag's (and the whole import's) table
+    if extras:
+        declared["channels"] = [spec.to_metadata() for spec in extras]
+    shape: dict[str, Any] = {k: declared[k] for k in ("channels", "commands") if k in declared}
     counter = None
     if episode_topic is not None:
         counter = (
@@ -629,7 +684,7 @@ def import_bags(
         cols = {name: np.concatenate(parts) for name, parts in bag_cols.items()}
         _check_angle(cols, sources.get("angle"), bag)
         try:
-            cols, _ = finish(cols, {}, file=bag, derive=derived, what="bag")
+            cols, _ = finish(cols, dict(shape), file=bag, derive=derived, what="bag")
         except DatasetError as err:
             raise DatasetError(
                 err.reason,
@@ -642,7 +697,7 @@ def import_bags(
             ) from None
         for name in columns:
             columns[name].append(cols[name])
-    md = dict(metadata or {})
+    md = declared
     md.setdefault(
         "source",
         {

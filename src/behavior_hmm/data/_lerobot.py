@@ -10,13 +10,18 @@ Layout written by :func:`export_lerobot` (LeRobotDataset v3.0)::
       meta/episodes/chunk-000/file-000.parquet one row per episode (lengths, indices, stats)
       meta/behavior_hmm.json                   ours: metadata, episode ids and start times
 
-Frames hold ``observation.state`` (float32: distance m, linear_velocity m/s, angle deg,
-angular_velocity deg/s, in ``SENSOR_CHANNELS`` order, names listed in ``info.json``),
-``action`` (float32: left, right wheel speeds, rad/s), ``timestamp`` (float32, s from
-the episode's start), ``frame_index``, ``episode_index``, ``index`` and ``task_index``
-(int64). The task of a frame is the dataset's behavior (``--task``), or for complex
-demonstrations (several sub-behaviors) the active sub-behavior. No videos. LeRobot
-itself is not needed to write or read these files; the hub is never contacted.
+Frames hold ``observation.state`` (float32: every sensor channel of the dataset, in
+``Dataset.sensor_channels`` order: distance m, linear_velocity m/s, angle deg,
+angular_velocity deg/s, then the channels its metadata declares, in their units; or the
+declared channels only, for a robot without the four), ``action`` (float32: every
+command channel, in ``Dataset.command_channels`` order; by default the left, right wheel
+speeds, rad/s), ``timestamp`` (float32, s from the episode's start), ``frame_index``,
+``episode_index``, ``index`` and ``task_index`` (int64); the element names are listed in
+``info.json``, and the declarations (``channels``, ``commands``) travel in
+``meta/behavior_hmm.json`` with the rest of the metadata. The task of a frame is the
+dataset's behavior (``--task``), or for complex demonstrations (several sub-behaviors)
+the active sub-behavior. No videos. LeRobot itself is not needed to write or read these
+files; the hub is never contacted.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ import os
 import re
 import secrets
 import shutil
-from collections.abc import Collection, Iterator, Mapping
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from stat import S_ISREG
@@ -42,11 +47,24 @@ import pyarrow.parquet as pq
 from numpy.typing import NDArray
 
 from behavior_hmm._safe_read import check_regular, load_json
-from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS, UNITS
+from behavior_hmm.data._channels import (
+    COMMAND_CHANNELS,
+    CONTROL_PERIOD,
+    SENSOR_CHANNELS,
+    UNITS,
+    ChannelSpec,
+)
+from behavior_hmm.data._csv import _extra_channels, _extra_unit
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._transform import check_units_of_derived, finish, parse_derive
+from behavior_hmm.data._transform import resample as resample_columns
 from behavior_hmm.data._units import MAX_UNWRAPPED_ANGLE, unit_factor, wrap_imported_angles
-from behavior_hmm.data._validate import suggest
+from behavior_hmm.data._validate import (
+    check_table,
+    declared_channels,
+    declared_commands,
+    suggest,
+)
 from behavior_hmm.errors import ConfigError, DatasetError
 
 #: The LeRobotDataset format version written.
@@ -76,8 +94,6 @@ DEFAULT_FEATURES: Final[dict[str, str]] = {
 
 _QUANTILES = {"q01": 0.01, "q10": 0.10, "q50": 0.50, "q90": 0.90, "q99": 0.99}
 _STATS = ("min", "max", "mean", "std", "count", *_QUANTILES)
-
-_MAPPABLE = ("t", *SENSOR_CHANNELS, *COMMAND_CHANNELS)
 
 
 # -- export -------------------------------------------------------------------------------
@@ -217,13 +233,13 @@ def _write_tree(ds: Dataset, root: Path, task: str, robot_type: str | None) -> N
     features: dict[str, Any] = {
         STATE: {
             "dtype": "float32",
-            "shape": [len(SENSOR_CHANNELS)],
-            "names": list(SENSOR_CHANNELS),
+            "shape": [len(ds.sensor_channels)],
+            "names": list(ds.sensor_channels),
         },
         ACTION: {
             "dtype": "float32",
-            "shape": [len(COMMAND_CHANNELS)],
-            "names": list(COMMAND_CHANNELS),
+            "shape": [len(ds.command_channels)],
+            "names": list(ds.command_channels),
         },
         **{
             name: {"dtype": dtype, "shape": [1], "names": None}
@@ -277,7 +293,7 @@ def _write_tree(ds: Dataset, root: Path, task: str, robot_type: str | None) -> N
         "t0": t0.tolist(),
         "behavior_from_task": per_frame,
         "behavior_name": names[0] if len(names) == 1 else None,
-        "units": {name: UNITS[name] for name in (*SENSOR_CHANNELS, *COMMAND_CHANNELS)},
+        "units": {spec.name: spec.unit for spec in (*ds.channel_specs, *ds.command_specs)},
     }
     data_file = root / DATA_PATH.format(chunk_index=0, file_index=0)
     data_file.parent.mkdir(parents=True)
@@ -424,11 +440,18 @@ def _names(feature: Mapping[str, Any]) -> list[str]:
     return []
 
 
-def _default_refs(features: Mapping[str, Any]) -> dict[str, FeatureRef]:
-    """Our channels found by name among the features' element names (or as features)."""
+def _default_refs(
+    features: Mapping[str, Any],
+    sensors: Collection[str] = SENSOR_CHANNELS,
+    commands: Collection[str] = COMMAND_CHANNELS,
+) -> dict[str, FeatureRef]:
+    """Our channels found by name among the features' element names (or as features).
+
+    ``sensors`` are looked up first in ``observation.state``, ``commands`` in ``action``.
+    """
     refs: dict[str, FeatureRef] = {"t": FeatureRef("timestamp")}
-    for channel in (*SENSOR_CHANNELS, *COMMAND_CHANNELS):
-        prefer = (STATE, ACTION) if channel in SENSOR_CHANNELS else (ACTION, STATE)
+    for channel in (*sensors, *commands):
+        prefer = (STATE, ACTION) if channel in sensors else (ACTION, STATE)
         order = [*prefer, *(f for f in features if f not in prefer)]
         for name in order:
             feature = features.get(name)
@@ -665,13 +688,23 @@ def _read_ours(path: Path) -> _Ours:
     name = doc.get("behavior_name")
     if name is not None and (not isinstance(name, str) or not name):
         raise bad("behavior_name", "a behavior name (a string) or null")
+    # the channels and commands the metadata declares (checked here, naming this file)
+    declared = {
+        spec.name: spec.unit
+        for spec in (
+            *declared_channels(metadata, file=file),
+            *declared_commands(metadata, file=file),
+        )
+    }
     units = doc.get("units")
     if units is not None:
         if not isinstance(units, dict):
             raise bad("units", "a JSON object of channel -> unit")
+        known = {name: UNITS[name] for name in UNITS}
+        known.update(declared)
         for channel, unit in units.items():
-            if channel not in UNITS or unit != UNITS[channel]:
-                want = f"'{UNITS[channel]}'" if channel in UNITS else "none (not our channel)"
+            if channel not in known or unit != known[channel]:
+                want = f"'{known[channel]}'" if channel in known else "none (not our channel)"
                 raise DatasetError(
                     f"unit of '{channel[:40]}' is {_show(unit)}; this reader takes {want}",
                     file=file,
@@ -1093,6 +1126,8 @@ def import_lerobot(
     derive: Collection[str] | str = (),
     resample: bool = False,
     metadata: Mapping[str, Any] | None = None,
+    channels: Sequence[ChannelSpec | Mapping[str, Any]] | None = None,
+    commands: Sequence[ChannelSpec | Mapping[str, Any] | str] | None = None,
 ) -> Dataset:
     """Read a LeRobot dataset folder (v3.0; v2.x data files too) into a :class:`Dataset`.
 
@@ -1110,6 +1145,20 @@ def import_lerobot(
         As for :func:`import_csv`.
     metadata
         Dataset metadata over the exported one (if the folder holds ours).
+    channels
+        A robot's own sensor channels to read besides ours, as for :func:`import_csv`
+        (:class:`ChannelSpec` objects or declarations ``{"name", "unit", "range"}``),
+        after any the metadata declares; each is found by name among the features'
+        element names (``observation.state`` first) unless mapped. Read in its declared
+        unit. A dataset of declared channels only (none of the four of the data
+        contract found, mapped or derived) is a robot's own.
+    commands
+        The command channels in action order, replacing the metadata's (default: our two
+        wheels): declarations ``{"name", "unit", "range", "rest"}`` or known names
+        (``"left"``); each found by name (``action`` first) unless mapped.
+
+    A folder written by :func:`export_lerobot` restores its declared channels and
+    commands from ``meta/behavior_hmm.json`` without any of these.
 
     Time stamps lying on the frame grid (``timestamp ≈ frame_index / fps`` within 0.1
     ms) are snapped onto it, undoing float32 rounding. Angles beyond
@@ -1141,13 +1190,27 @@ def import_lerobot(
             _feature_spec(info, name)
     ours = _read_ours(root / OURS) if os.path.lexists(root / OURS) else None
     derived = parse_derive(derive)
-    refs = _default_refs(features)
+    md: dict[str, Any] = dict(ours.metadata) if ours is not None else {}
+    md.update(metadata or {})
+    extras = _extra_channels(md, channels, file)
+    if extras:
+        md["channels"] = [spec.to_metadata() for spec in extras]
+    if commands is not None:
+        md["commands"] = [
+            spec.to_metadata() for spec in declared_commands({"commands": list(commands)})
+        ]
+    command_specs = declared_commands(md, file=file)
+    extra_names = tuple(spec.name for spec in extras)
+    command_names = tuple(spec.name for spec in command_specs)
+    mappable = ("t", *SENSOR_CHANNELS, *extra_names, *command_names)
+    refs = _default_refs(features, (*SENSOR_CHANNELS, *extra_names), command_names)
     mapping = dict(mapping or {})
     for channel, spec in mapping.items():
-        if channel not in _MAPPABLE:
+        if channel not in mappable:
             raise ConfigError(
-                f"--map {channel}: unknown channel (channels: {', '.join(_MAPPABLE)}; episodes "
-                f"are episode_index){suggest(channel, _MAPPABLE)}"
+                f"--map {channel}: unknown channel (channels: {', '.join(mappable)}; episodes "
+                f"are episode_index; declare a robot's own with --channel or --command)"
+                f"{suggest(channel, mappable)}"
             )
         refs[channel] = parse_feature_ref(spec)
     for ref in refs.values():
@@ -1162,13 +1225,23 @@ def import_lerobot(
         if name in mapping:
             raise ConfigError(f"--derive {name}: it is mapped too (--map {name}=...); choose one")
         refs.pop(name, None)
-    missing = [c for c in _MAPPABLE if c not in refs and c not in derived]
+    # a robot's own channels only: none of the data contract's four found, mapped or derived
+    own_only = bool(extras) and not any(c in refs or c in derived for c in SENSOR_CHANNELS)
+    needed = [c for c in mappable if not (own_only and c in SENSOR_CHANNELS)]
+    missing = [c for c in needed if c not in refs and c not in derived]
     if missing:
+        feature = ACTION if missing[0] in command_names else STATE
         raise ConfigError(
             f"no feature for channel(s) {', '.join(missing)}: map each with --map "
-            f"CHANNEL=FEATURE:ELEMENT, e.g. --map {missing[0]}=observation.state:0"
+            f"CHANNEL=FEATURE:ELEMENT, e.g. --map {missing[0]}={feature}:0"
         )
-    factors = {name: unit_factor(name, unit) for name, unit in (units or {}).items()}
+    own_specs = [*extras, *(s for s in command_specs if s.name not in COMMAND_CHANNELS)]
+    factors = {
+        name: _extra_unit(own, unit)
+        if (own := next((s for s in own_specs if s.name == name), None))
+        else unit_factor(name, unit)
+        for name, unit in (units or {}).items()
+    }
     check_units_of_derived(factors, derived)
 
     data_dir = root / "data"
@@ -1202,10 +1275,8 @@ def import_lerobot(
             columns[channel] = values * factors[channel] if channel in factors else values
     columns["t"] = _snap(columns["t"], frame, episode_index, info.fps)
 
-    md: dict[str, Any] = {}
     episode = episode_index
     if ours is not None:
-        md = dict(ours.metadata)
         n_eps = int(episode_index.max()) + 1
         stale = f"; delete {OURS} to import without it"
         if ours.t0 is not None and "t" not in mapping:
@@ -1252,7 +1323,6 @@ def import_lerobot(
                     )
             texts = np.array([tasks[i] for i in used.tolist()], dtype=object)
             columns["behavior"] = texts[inverse.reshape(-1)]
-    md.update(metadata or {})
     md["source"] = {
         "format": "lerobot",
         "folder": root.name,
@@ -1262,18 +1332,19 @@ def import_lerobot(
         "units": dict(units or {}),
     }
     columns["episode"] = episode
-    angle = columns["angle"]
-    columns["angle"], absurd = wrap_imported_angles(angle)
-    if absurd is not None:
-        raise _frame_error(
-            f"absurd angle {angle[absurd]:g} deg (beyond ±{MAX_UNWRAPPED_ANGLE:g} deg; wrong "
-            "units? --unit angle=rad)",
-            absurd,
-            f"angle ({refs['angle']})",
-            episode,
-            source,
-            frames.paths,
-        )
+    if "angle" in columns:
+        angle = columns["angle"]
+        columns["angle"], absurd = wrap_imported_angles(angle)
+        if absurd is not None:
+            raise _frame_error(
+                f"absurd angle {angle[absurd]:g} deg (beyond ±{MAX_UNWRAPPED_ANGLE:g} deg; "
+                "wrong units? --unit angle=rad)",
+                absurd,
+                f"angle ({refs['angle']})",
+                episode,
+                source,
+                frames.paths,
+            )
     cols, md = finish(
         columns,
         md,
@@ -1282,6 +1353,13 @@ def import_lerobot(
         resample_to=CONTROL_PERIOD if resample else None,
         what="dataset",
     )
+    wrapping = [s.name for s in (*extras, *command_specs) if s.wraps and s.name != "angle"]
+    if resample and wrapping:
+        # resampled like the angle (unwrapped, interpolated, wrapped), not straight across
+        for name in wrapping:
+            grid = {"episode": columns["episode"], "t": columns["t"], "angle": columns[name]}
+            cols[name] = resample_columns(grid, CONTROL_PERIOD)["angle"]
+        cols, md = check_table(cols, md, file=file)
     return Dataset._trusted(cols, md)
 
 
