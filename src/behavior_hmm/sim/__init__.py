@@ -16,6 +16,8 @@ Examples
 
 from __future__ import annotations
 
+import gymnasium as _gymnasium
+
 from behavior_hmm._envs import register_envs
 from behavior_hmm.data._channels import COMMAND_CHANNELS, CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.sim._env import (
@@ -32,6 +34,7 @@ from behavior_hmm.sim._env import (
 from behavior_hmm.sim._husky import HuskyEnv, make_husky
 from behavior_hmm.sim._mujoco import MODEL_XML
 from behavior_hmm.sim._params import RobotParams
+from behavior_hmm.sim._point_mass import POINT_MASS_ENV_ID, PointMassEnv
 
 __all__ = [
     "BACKENDS",
@@ -41,10 +44,12 @@ __all__ = [
     "ENV_ID",
     "KINEMATIC_ENV_ID",
     "MODEL_XML",
+    "POINT_MASS_ENV_ID",
     "SENSOR_CHANNELS",
     "ChannelDict",
     "HuskyEnv",
     "KheperaEnv",
+    "PointMassEnv",
     "RobotParams",
     "make_contract_env",
     "make_env",
@@ -53,3 +58,5 @@ __all__ = [
 ]
 
 register_envs()
+if POINT_MASS_ENV_ID not in _gymnasium.registry:  # the LASA robot (a 2-D point mass)
+    _gymnasium.register(POINT_MASS_ENV_ID, "behavior_hmm.sim._point_mass:make_point_mass")
