@@ -17,7 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from behavior_hmm.data import CONTROL_PERIOD, SENSOR_CHANNELS, Dataset
+from behavior_hmm.data import CONTROL_PERIOD, SENSOR_CHANNELS, ChannelSpec, Dataset
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.runtime import Trace
 from behavior_hmm.viz import (
@@ -102,6 +102,21 @@ def test_plot_trace_returns_the_figure_and_saves_only_when_given_a_path(tmp_path
     saved = plot_trace(_trace(), out)  # the old positional call: (trace, path)
     assert isinstance(saved, Figure)
     assert out.read_bytes()[:8] == PNG
+
+
+def test_plot_trace_draws_every_declared_command_in_its_unit() -> None:
+    trace = _trace()
+    trace.command_channels = ["left", "right", "grip"]
+    trace.commands = [np.array([-1.0, 1.0, 0.01])] * len(trace.t)
+    grip = ChannelSpec("grip", "m/s", (-0.02, 0.02), kind="command")
+    trace.channel_specs = {"grip": grip}
+    demo = {**_demo(), "grip": np.full(270, 0.01)}
+    commands = plot_trace(trace, reference=demo).axes[1]
+    names = [line.get_label() for line in commands.get_lines()]
+    assert {"left (model)", "right (model)", "grip (model)", "grip (teacher)"} <= set(names)
+    assert commands.get_ylabel() == "command"  # two units: none named
+    trace.command_channels, trace.commands = ["grip"], [np.array([0.01])] * len(trace.t)
+    assert plot_trace(trace).axes[1].get_ylabel() == "command (m/s)"
 
 
 def test_plot_trace_names_the_active_primitives() -> None:

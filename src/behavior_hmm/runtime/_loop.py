@@ -210,7 +210,11 @@ def run_policy(
             command_channels=list(robot.command_channels),
         )
         # a policy may declare channels the registry does not know (a model's own)
-        trace.channel_specs = {**robot.channel_specs, **(getattr(policy, "channel_specs", {}))}
+        trace.channel_specs = {
+            **{spec.name: spec for spec in robot.command_specs},
+            **robot.channel_specs,
+            **(getattr(policy, "channel_specs", {})),
+        }
         reason = "step_limit"
         for k in range(max_steps):
             seen, held = guard(reading)

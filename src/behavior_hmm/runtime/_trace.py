@@ -67,8 +67,8 @@ class Trace:
     reason: str = ""
     fault_channels: list[str] = field(default_factory=list)
     final_observation: NDArray[np.float64] | None = None
-    #: declarations of channels the registry does not know (the robot's or the model's
-    #: own), for the goal's tolerance and an angle's wrap
+    #: declarations of the channels the registry does not know (the robot's sensors and
+    #: commands, the model's own), for the goal's tolerance, an angle's wrap, plot units
     channel_specs: dict[str, ChannelSpec] = field(default_factory=dict)
 
     def __len__(self) -> int:

@@ -351,7 +351,7 @@ def plot_trace(
         if name in demo:
             ax.plot(demo["t"], demo[name], label=f"{name} (teacher)", **{**style, "color": color})
     ax.axhline(0.0, color="0.3", lw=0.6)
-    units = {UNITS.get(name, "") for name in names}
+    units = {specs[name].unit if name in specs else UNITS.get(name, "") for name in names}
     wheels = names == ["left", "right"]
     unit = units.pop() if len(units) == 1 else ""
     ax.set_ylabel("wheel speed (rad/s)" if wheels else f"command ({unit})" if unit else "command")
