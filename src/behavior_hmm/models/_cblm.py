@@ -25,7 +25,7 @@ from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
 from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
-from behavior_hmm.models._goals import TOLERANCES, check_goal, check_input_names
+from behavior_hmm.models._goals import check_goal, check_input_names
 from behavior_hmm.models._sblm import (
     SBLM,
     _cobart_from,
@@ -275,7 +275,8 @@ class CBLM(LearnedBehavior):
         self.max_steps_ = int(
             max(1000, 2 * int(lengths.max()), sum(c.max_steps_ for c in components))
         )
-        self.effects_ = _effects(states, raw, lengths, len(components), inputs)
+        wraps = [self.channel_spec(c).wraps for c in inputs]
+        self.effects_ = _effects(states, raw, lengths, len(components), wraps)
         self.train_data_: str | None = None  # set by the command line to the data file
         self._record_provenance(dataset)
         self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
@@ -332,12 +333,18 @@ class CBLM(LearnedBehavior):
                 goal[channel] = values[channel]
             else:
                 goal[channel] = model.default_goal_[channel]
-        if "angle" in goal and abs(goal["angle"]) <= TOLERANCES["angle"]:
-            goal["angle"] = 0.0  # an aligned exit observation means "face the object"
-        if "distance" in goal:
-            # within the component's own range of distances (never behind contact)
-            _, far = model.pipeline_.normalizer.ranges["distance"]
-            goal["distance"] = float(np.clip(goal["distance"], 0.0, far))
+        for channel in goal:
+            spec = model.channel_spec(channel)
+            if spec.wraps:
+                # an aligned exit observation means "aligned": a bearing within its
+                # tolerance of 0 is 0 (face the object)
+                if spec.tolerance is not None and abs(goal[channel]) <= spec.tolerance:
+                    goal[channel] = 0.0
+            elif spec.range[0] >= 0.0:
+                # a quantity that is never negative (a distance: never behind contact)
+                # stays within the component's own range
+                _, far = model.pipeline_.normalizer.ranges[channel]
+                goal[channel] = float(np.clip(goal[channel], 0.0, far))
         return goal
 
     # -------------------------------------------------------------- generation
@@ -504,25 +511,26 @@ def _effects(
     raw: np.ndarray,
     lengths: np.ndarray,
     n_components: int,
-    inputs: tuple[str, ...],
+    wraps: Sequence[bool],
 ) -> np.ndarray:
     """What each component does to each input in the demonstrations.
 
     ``effects[k, j]`` is the mean per-step change, while component ``k`` is active, of
-    input ``j`` — of its magnitude ``|x|`` for the angle (a turn shrinks the bearing
-    from either side), of the value itself otherwise (an approach lowers the distance, a
-    retreat raises it). The complex runtime uses the signs to pick which component can
-    still close a gap the plan has left (see ``models._complex_policy.ComplexPolicy``).
+    input ``j`` — of its magnitude ``|x|`` for a wrapping channel (an angle: a turn
+    shrinks the bearing from either side), of the value itself otherwise (an approach
+    lowers the distance, a retreat raises it). The complex runtime uses the signs to pick
+    which component can still close a gap the plan has left (see
+    ``models._complex_policy.ComplexPolicy``).
     """
     values = np.array(raw, dtype=np.float64)
-    for j, name in enumerate(inputs):
-        if name == "angle":
+    for j, wrapping in enumerate(wraps):
+        if wrapping:
             values[:, j] = np.abs(values[:, j])
     steps = np.diff(values, axis=0)
     same_episode = np.ones(len(values) - 1, dtype=bool)
     same_episode[np.cumsum(lengths)[:-1] - 1] = False
     active = states[:-1]
-    effects = np.zeros((n_components, len(inputs)))
+    effects = np.zeros((n_components, len(wraps)))
     for k in range(n_components):
         rows = same_episode & (active == k)
         if rows.any():

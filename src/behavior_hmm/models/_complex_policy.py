@@ -299,13 +299,14 @@ class ComplexPolicy(GoalTracking, RateLimited):
         An intermediate goal is its exit category's prototype, which is coarse: from
         0.49 m toward 0.63 m the turn & approach before a retreat is handed 0.39 m, and
         would approach 10 cm only for the retreat to undo it. A channel the complex goal
-        states (other than the angle, whose sign is no direction) whose sub-goal lies
-        behind the robot, away from the goal, keeps its current value instead.
+        states (other than a wrapping one, an angle, whose sign is no direction) whose
+        sub-goal lies behind the robot, away from the goal, keeps its current value
+        instead.
         """
         if not self._forward:  # thesis: the prototype as it is
             return sub_goal
         for channel, target in sub_goal.items():
-            if channel == "angle" or channel not in self.goal:
+            if channel not in self.goal or self.channel_specs[channel].wraps:
                 continue
             now = values[channel]
             if (target - now) * (self.goal[channel] - now) < 0.0:
@@ -359,7 +360,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 continue
             j = self._channels.index(channel)
             error = values[channel] - self.goal[channel]
-            needed = -1.0 if channel == "angle" else -np.sign(error)
+            # the change that closes the gap: |angle| must shrink; others move to the goal
+            needed = -1.0 if self.channel_specs[channel].wraps else -np.sign(error)
             gain = needed * effects[:, j]
             able = [
                 k
@@ -401,7 +403,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             j = self._channels.index(channel)
             error = values[channel] - self.goal[channel]
             # the change that closes the gap: |angle| must shrink; others move to the goal
-            needed = -1.0 if channel == "angle" else -np.sign(error)
+            needed = -1.0 if self.channel_specs[channel].wraps else -np.sign(error)
             order = np.argsort(-needed * effects[:, j], kind="stable")
             for comp in (int(k) for k in order):
                 component = self.model.components_[comp]
