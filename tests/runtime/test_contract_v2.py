@@ -243,6 +243,20 @@ def test_evaluation_against_the_teacher_and_against_recordings(
     assert recorded["goal_reached"] >= 0.9 * len(TRAIN_STARTS)
 
 
+def test_a_behavior_name_is_checked_before_any_demonstration_runs() -> None:
+    class Counting(MinimumJerkTeacher):
+        resets = 0
+
+        def reset(self, start: dict[str, float], goal: dict[str, float]) -> None:
+            Counting.resets += 1
+            super().reset(start, goal)
+
+    env = make()
+    with pytest.raises(ConfigError, match="behavior name: invalid behavior name 'Reach Me'"):
+        collect_with_teacher("Reach Me", env, Counting(env), GOAL, TRAIN_STARTS)
+    assert Counting.resets == 0
+
+
 def test_a_model_without_a_teacher_of_ours_needs_one(reach: SBLM) -> None:
     with pytest.raises(ConfigError, match=r"has no teacher of ours.*--teacher.*--reference"):
         evaluate_model(reach, [{"x": 0.3, "y": 0.0}], sim=None, env=make())

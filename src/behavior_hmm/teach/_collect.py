@@ -211,11 +211,15 @@ def collect_with_teacher(
         A demonstration the teacher has not ended by then is an error.
     """
     from behavior_hmm.data import CHANNELS
+    from behavior_hmm.data._validate import check_behavior_name
+    from behavior_hmm.errors import DatasetError
     from behavior_hmm.runtime import Robot
     from behavior_hmm.teach._external import check_teacher, teacher_demonstration
 
-    if not isinstance(name, str) or not name.strip():
-        raise ConfigError("a behavior collected with a teacher needs a name")
+    try:  # before any demonstration runs, not after the last one
+        check_behavior_name(name)
+    except DatasetError as err:
+        raise ConfigError(f"behavior name: {err.reason}") from None
     if noise < 0:
         raise ConfigError(f"--noise must be >= 0, got {noise}")
     if seed < 0:
