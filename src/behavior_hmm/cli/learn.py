@@ -83,14 +83,35 @@ def _inputs(text: str) -> list[str]:
 @user_errors
 def train_simple(
     data: Annotated[Path, typer.Argument(help="Demonstrations (Parquet)")],
-    inputs: Annotated[str, typer.Option(help="Input channels, e.g. angle,angular_velocity")],
     out: ModelOut,
-    seed: SeedOption = 0,
+    inputs: Annotated[
+        str | None,
+        typer.Option(
+            help="Input channels, e.g. angle,angular_velocity (required, except with "
+            "--update: the model's)"
+        ),
+    ] = None,
+    seed: Annotated[
+        int | None,
+        typer.Option(help="Seed (>= 0) of every random draw (default 0; --update: the model's)"),
+    ] = None,
     preset: PresetOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,
+    update: Annotated[
+        Path | None,
+        typer.Option(
+            "--update",
+            help="A simple behavior's model (.bhmm) to continue with the new demonstrations "
+            "(left unchanged; -o gets the result)",
+        ),
+    ] = None,
 ) -> None:
-    """Learn a simple behavior (SBLM) from demonstrations.
+    """Learn a simple behavior (SBLM) from demonstrations, or continue one (--update).
+
+    With --update MODEL the model learns the new demonstrations of its behavior on top of
+    what it knows (SBLM.partial_fit): its parameters, inputs and seed stay its own, so
+    --preset, --config, --set and other --inputs are refused; MODEL is left unchanged.
 
     Example: behavior-hmm train simple data/turn.parquet --inputs angle --preset thesis
     -o models/turn-thesis.bhmm
@@ -99,10 +120,16 @@ def train_simple(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.models import SBLM, describe_params
 
-    check_seed(seed)
+    if seed is not None:
+        check_seed(seed)
+    if update is not None:
+        _update_simple(data, update, out, inputs, seed, preset, config, set_)
+        return
+    if inputs is None:
+        raise ConfigError("--inputs is required, e.g. --inputs angle (or --update MODEL)")
     check_outputs({"DATA": data, "--config": config}, {"-o": out})
     _, params = model_params(("SBLM",), preset, config, set_)
-    model = SBLM(**params["SBLM"], inputs=_inputs(inputs), random_state=seed)
+    model = SBLM(**params["SBLM"], inputs=_inputs(inputs), random_state=seed or 0)
     model.check_params()  # before any data is read
     dataset = bdata.read(data)
     log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
@@ -117,6 +144,56 @@ def train_simple(
         f"{model.observations_.n_categories_} observation categories, "
         f"preset {describe_params('SBLM', model.get_params())} "
         f"({time.perf_counter() - t0:.1f} s)"
+    )
+
+
+def _update_simple(
+    data: Path,
+    update: Path,
+    out: Path,
+    inputs: str | None,
+    seed: int | None,
+    preset: str | None,
+    config: Path | None,
+    set_: list[str] | None,
+) -> None:
+    """``train simple DATA --update MODEL -o OUT``: MODEL continued on DATA, written to OUT."""
+    from behavior_hmm import data as bdata
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.models import SBLM
+
+    for option, value in (("--preset", preset), ("--config", config), ("--set", set_)):
+        if value:
+            raise ConfigError(f"{option} cannot be used with --update: the model keeps its own")
+    check_outputs({"DATA": data, "--update": update}, {"-o": out})
+    model = load_model(update)
+    if not isinstance(model, SBLM):
+        raise ConfigError(f"--update {update}: a {model.kind}, not a simple behavior (SBLM)")
+    if inputs is not None and tuple(_inputs(inputs)) != tuple(model.inputs_):
+        raise ConfigError(
+            f"--inputs {inputs}: the model reads {','.join(model.inputs_)}; "
+            "an update keeps its inputs"
+        )
+    if seed is not None and seed != model.random_state:
+        raise ConfigError(
+            f"--seed {seed}: an update draws from the model's seed ({model.random_state})"
+        )
+    before = (model.primitives_.n_categories_, model.observations_.n_categories_)
+    dataset = bdata.read(data)
+    log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
+    t0 = time.perf_counter()
+    with spinner(f"update {update.name} with {data.name}"):
+        model.partial_fit(dataset, source=data)
+    model.save(out)
+    record = model.updates_[-1]
+    tuned = ",".join(str(p) for p in record["fine_tuned"]) or "none"
+    typer.echo(
+        f"wrote {out}: {model.behavior_} on {','.join(model.inputs_)} updated with "
+        f"{len(dataset)} demonstrations, {model.primitives_.n_categories_} primitives "
+        f"(+{model.primitives_.n_categories_ - before[0]}), "
+        f"{model.observations_.n_categories_} observation categories "
+        f"(+{model.observations_.n_categories_ - before[1]}), generators fine-tuned: "
+        f"{tuned} ({time.perf_counter() - t0:.1f} s); {update} unchanged"
     )
 
 

@@ -242,6 +242,142 @@ class MotionGenerators(Estimator):
         self._set_shapes()
         return self
 
+    def partial_fit(
+        self,
+        X: ArrayLike,
+        Y: ArrayLike,
+        primitives: ArrayLike,
+        n_primitives: int | None = None,
+        groups: ArrayLike | None = None,
+        *,
+        update: int = 1,
+    ) -> MotionGenerators:
+        """Train the networks of the primitives that have rows in ``X``; keep the others.
+
+        A primitive that is new (an index ``>= n_primitives_``) or had no samples so far
+        gets a fresh network, trained exactly as :meth:`fit` trains one (its own seed
+        ``primitive_rng(random_state, p)``, split, ``epochs``). A primitive that already
+        has a network is *fine-tuned*: training starts from its current weights and runs
+        ``epochs`` passes over the new rows only (the rows it was trained on before are
+        not kept), with the split and the order drawn from
+        ``SeedSequence(random_state, spawn_key=(p, update))``. Its ``n_train_``,
+        ``n_test_``, error curves and ``best_epoch_`` then describe this training. The
+        networks, counts and curves of every primitive without rows in ``X`` stay bit
+        for bit as they were; the stacks grow to ``n_primitives`` (default: the larger
+        of ``n_primitives_`` and the highest index + 1), new primitives without rows
+        untrained.
+
+        Parameters
+        ----------
+        X, Y, groups
+            As for :meth:`fit`, with the fitted number of features and outputs.
+        primitives
+            Primitive id of each row.
+        n_primitives
+            Number of primitives after the update; at least ``n_primitives_``.
+        update
+            Which update this is (1, 2, ...): the seed of the fine-tuned primitives' draws.
+
+        Returns
+        -------
+        MotionGenerators
+            ``self``.
+        """
+        self._check_fitted()
+        self._validated_params()
+        _check_int("update", update, 1)
+        if primitives is None:
+            raise ConfigError("partial_fit needs the primitive of every row")
+        x, y, prim, n_prim, group = _check_fit_inputs(X, Y, primitives, n_primitives, groups)
+        if x.shape[1] != self.n_features_in_ or y.shape[1] != self.n_outputs_:
+            raise ConfigError(
+                f"X and Y have {x.shape[1]} features and {y.shape[1]} outputs, the generators "
+                f"{self.n_features_in_} and {self.n_outputs_}"
+            )
+        old_n = self.n_primitives_
+        if n_primitives is not None and n_prim < old_n:
+            raise ConfigError(f"n_primitives={n_prim} is fewer than the fitted {old_n}")
+        n_prim = max(n_prim, old_n)
+        sizes = (self.n_features_in_, *self.hidden_sizes_, self.n_outputs_)
+        size = n_params(sizes)
+        which = np.unique(prim)
+        theta0 = np.zeros((which.size, size))
+        rngs: list[np.random.Generator] = []
+        splits: list[tuple[NDArray[np.intp], NDArray[np.intp]]] = []
+        for i, p in enumerate(which.tolist()):
+            rows = np.flatnonzero(prim == p)
+            warm = p < old_n and bool(self.trained_[p])
+            if warm:
+                seq = np.random.SeedSequence(int(self.random_state), spawn_key=(p, int(update)))
+                rng = np.random.default_rng(seq)
+            else:
+                rng = primitive_rng(int(self.random_state), p)
+            rngs.append(rng)
+            # the draws in fit's order: split, initial weights, each epoch's order
+            splits.append(
+                split_rows(rows, group, rng, float(self.test_fraction), int(self.min_split_samples))
+            )
+            if warm:
+                views = layer_views(theta0[i : i + 1], sizes)
+                for w, c, b in zip(views, self.coefs_, self.intercepts_, strict=True):
+                    w[0, :-1, :] = c[p]
+                    w[0, -1, :] = b[p]
+            else:
+                theta0[i] = init_weights(rng, sizes, float(self.init_range))
+        n_train = np.array([len(tr) for tr, _ in splits], dtype=np.int64)
+        n_test = np.array([len(te) for _, te in splits], dtype=np.int64)
+        x_tr, y_tr = _pad([tr for tr, _ in splits], x, y)
+        x_te, y_te = _pad([te for _, te in splits], x, y)
+        options = self._optimizer_options()
+        momentum = float(options.pop("momentum", 0.0))
+        result = train_stack(
+            theta0,
+            sizes,
+            x_tr,
+            y_tr,
+            n_train,
+            x_te,
+            y_te,
+            n_test,
+            learning_rate=np.full(which.size, float(self.learning_rate)),
+            momentum=np.full(which.size, momentum),
+            epochs=int(self.epochs),
+            batch_size=int(self.batch_size),
+            rngs=rngs,
+            early_stopping=bool(self.early_stopping),
+            patience=None if self.patience is None else int(self.patience),
+            **options,
+        )
+        weights = layer_views(result.theta, sizes)
+
+        def grown(arr: NDArray[Any], fill: Any) -> NDArray[Any]:
+            out = np.full((n_prim, *arr.shape[1:]), fill, dtype=arr.dtype)
+            out[:old_n] = arr
+            return out
+
+        coefs = [grown(c, 0.0) for c in self.coefs_]
+        intercepts = [grown(b, 0.0) for b in self.intercepts_]
+        trained = grown(self.trained_, False)
+        counts = (grown(self.n_train_, 0), grown(self.n_test_, 0))
+        best_epoch = grown(self.best_epoch_, -1)
+        curves = (grown(self.train_error_, np.nan), grown(self.test_error_, np.nan))
+        for i, p in enumerate(which.tolist()):
+            for c, b, w in zip(coefs, intercepts, weights, strict=True):
+                c[p] = w[i, :-1, :]
+                b[p] = w[i, -1, :]
+            trained[p] = True
+            counts[0][p], counts[1][p] = n_train[i], n_test[i]
+            best_epoch[p] = result.best_epoch[i]
+            curves[0][p], curves[1][p] = result.train_error[i], result.test_error[i]
+        self.coefs_ = [np.ascontiguousarray(c) for c in coefs]
+        self.intercepts_ = [np.ascontiguousarray(b) for b in intercepts]
+        self.trained_ = trained
+        self.n_train_, self.n_test_ = counts
+        self.best_epoch_ = best_epoch
+        self.train_error_, self.test_error_ = curves
+        self._set_shapes()
+        return self
+
     def _set_shapes(self) -> None:
         self.n_primitives_ = int(self.coefs_[0].shape[0])
         self.n_features_in_ = int(self.coefs_[0].shape[1])

@@ -20,7 +20,8 @@ from behavior_hmm.data import (
     Dataset,
     SignalPipeline,
 )
-from behavior_hmm.data._channels import ChannelSpec
+from behavior_hmm.data._channels import CHANNELS, ChannelSpec
+from behavior_hmm.data._channels import channel as known_channel
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
 from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
 from behavior_hmm.generators._features import (
@@ -33,7 +34,7 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
+from behavior_hmm.models._base import LearnedBehavior, check_rate_limit, dataset_hash
 from behavior_hmm.models._goals import check_goal, check_input_names
 
 FloatArray = NDArray[np.float64]
@@ -203,6 +204,11 @@ class SBLM(LearnedBehavior):
         shown to stop (see :meth:`check_stoppable`).
     max_steps_ : int
         Step limit of a generation (twice the longest demonstration, at least 500).
+    updates_ : list of dict
+        One record per :meth:`partial_fit` since the last :meth:`fit` (saved with the
+        model): the new data's ``dataset_sha256``, ``episodes``, ``rows``, ``env``,
+        ``package_version``, ``new_primitives``, ``new_observations``, the
+        ``fine_tuned`` generators and the ``source`` file, if given.
     """
 
     kind = "SBLM"
@@ -429,7 +435,231 @@ class SBLM(LearnedBehavior):
         self.max_steps_ = int(max(500, 2 * int(lengths.max())))
         self.train_states_ = nominal_states
         self.train_observations_ = observations
+        self.updates_: list[dict[str, Any]] = []  # partial_fit's records
         return self
+
+    # ------------------------------------------------------------- partial_fit
+    def partial_fit(
+        self, dataset: Dataset, *, source: str | os.PathLike[str] | None = None
+    ) -> SBLM:
+        """Grow the fitted model with new demonstrations of the same behavior.
+
+        The model continues from what it learned; nothing is refitted from scratch, and
+        the demonstrations it was fitted on are not needed (the model file keeps none).
+        Corrective demonstrations are handled as :meth:`fit` handles them.
+
+        What stays, bit for bit:
+
+        * ``pipeline_``: the filter and the normalization ranges. The new readings go
+          through the fitted pipeline's ``transform``, as in training and at run time
+          (no clipping: a reading outside a range maps beyond [-1, 1] linearly).
+        * ``command_scale_``, ``command_scales_``, ``delta_scale_``: the generators'
+          output units (a new command beyond the fitted scale is clipped to ±1, as
+          :meth:`fit` clips the corrective demonstrations' commands), and
+          ``command_rates_``, the robot's response to a command (a property of the robot,
+          not of the demonstrations; it is not re-estimated, since the least squares
+          of :func:`command_rates` cannot be updated without the old rows).
+        * Every existing category index of both CobARTs, and every motion generator
+          whose primitive gets no row of the new demonstrations (margins included).
+
+        What moves:
+
+        * ``primitives_`` and ``observations_`` learn on the new nominal demonstrations
+          with :meth:`CobART.partial_fit`: a window that resonates with an existing
+          category (score >= ρ) moves that prototype by ``d · n^α · (p - z)``, ``n`` its
+          win count including this win (presets d 0.2, α -1: at most ``0.2 / (n + 1)`` of
+          the way, for a prototype that already won ``n`` times), and raises its count
+          by one; prototypes no new window resonates with stay bit for bit, and so do
+          ``dcm_scale_``. A window that resonates with none starts a new category at the
+          end. As in :meth:`fit` the new demonstrations are then relabelled with the
+          final prototypes; new categories that win nowhere are dropped, old ones are
+          never dropped nor renumbered (``kept_`` indexes the grown network). The old
+          demonstrations keep the labels they were counted with.
+        * ``hmm_``: the new labels are counted in with :meth:`BehaviorHMM.partial_fit`
+          (tables grown by the new primitives and categories): the counts equal those of
+          ``BehaviorHMM.fit`` on the old labels followed by the new.
+        * ``generators_``: a new primitive gets a new network trained on its rows as in
+          :meth:`fit`; an existing primitive with new rows is fine-tuned from its
+          current weights on its new rows only (``MotionGenerators.partial_fit``: the
+          old rows are not stored, which keeps the model file its size).
+        * ``stops_`` gains the new demonstrations' final readings; ``rest_values_`` (their
+          median), ``default_goal_`` (from ``rest_values_`` and the new dataset's goal
+          channels) and ``max_steps_`` (twice the longest demonstration, at least 500)
+          are then what :meth:`fit` on all the demonstrations gives.
+        * ``provenance_`` stays that of the fit; ``updates_`` gets one record per update
+          (the new data's hash, episodes, rows, env, package version, the new primitives
+          and categories, the fine-tuned generators and ``source``), saved in the file.
+
+        Parameters
+        ----------
+        dataset
+            New demonstrations of the model's behavior: the same input channels (same
+            declarations), command channels, control period and normalization ranges.
+        source
+            The file the demonstrations came from, recorded in the update's record.
+
+        Returns
+        -------
+        SBLM
+            ``self``. Nothing is changed when an error is raised.
+
+        Raises
+        ------
+        NotFittedError
+            The model is not fitted.
+        ConfigError
+            Demonstrations of another behavior, robot, channels or rates, or parameters
+            changed since the fit in a way the fitted parts cannot follow.
+        """
+        self._check_fitted()
+        self.check_params()
+        if not isinstance(dataset, Dataset):
+            raise ConfigError(
+                f"partial_fit expects a behavior_hmm.data.Dataset, got {type(dataset)}"
+            )
+        inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
+        self._check_update(dataset, inputs)
+        dataset = (
+            without_unseen_corrections(dataset, inputs)
+            if self.learn_corrections
+            else dataset.subset(np.flatnonzero(nominal_episodes(dataset)))
+        )
+        x = self.pipeline_.transform(dataset)
+        lengths = dataset.lengths
+        nominal = nominal_rows(dataset)
+        x_nom = x[nominal]
+        lengths_nom = lengths[nominal_episodes(dataset)]
+        prim = continued_cobart(self.primitives_, x_nom, lengths_nom)
+        obs = continued_cobart(self.observations_, x_nom, lengths_nom)
+        nominal_states = prim.labels_
+        observations = obs.labels_
+        states = nominal_states if nominal.all() else prim.predict(x, lengths)
+        hmm = BehaviorHMM.from_arrays(self.hmm_.to_arrays(), self.hmm_.params)
+        hmm.set_params(n_states=prim.n_categories_, n_observations=obs.n_categories_)
+        hmm.partial_fit(nominal_states, observations, lengths_nom)
+        # the generators' units stay those of the fit
+        y = np.clip(np.asarray(dataset.commands, dtype=np.float64) / self.command_scales_, -1, 1)
+        step = y - command_features(y, lengths, 1)
+        layout = self.feature_layout(len(inputs), int(prim.window), self.delta_scale_)
+        features = layout.offline(x, y, lengths)
+        if self.generator_output == "command":
+            target = y
+        else:
+            target = np.clip(step / self.delta_scale_, -1, 1)
+        gen_states = states
+        groups = np.repeat(dataset.episode_ids, lengths)
+        if self.segment_margin > 0:
+            rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
+            features, target, groups = features[rows], target[rows], groups[rows]
+        if self.window_noise > 0:
+            features, target, gen_states, groups = self._noisy_copies(
+                features, target, gen_states, groups
+            )
+        old = self.generators_
+        gens = MotionGenerators.from_arrays(old.to_arrays(), **old.get_params())
+        updates = list(getattr(self, "updates_", []))
+        gens.partial_fit(
+            features,
+            target,
+            gen_states,
+            n_primitives=prim.n_categories_,
+            groups=groups,
+            update=len(updates) + 1,
+        )
+        finals = dataset.offsets[1:] - 1
+        raw = dataset.columns(inputs)
+        stops = np.vstack([self.stops_, raw[finals]])
+        retrained = [
+            int(p) for p in np.unique(gen_states) if p < old.n_primitives_ and old.trained_[p]
+        ]
+        record: dict[str, Any] = {
+            "dataset_sha256": dataset_hash(dataset),
+            "episodes": len(dataset),
+            "rows": int(dataset.n_samples),
+            "env": str(
+                dataset.metadata.get("env") or dataset.metadata.get("simulator") or "unknown"
+            ),
+            "package_version": _package_version(),
+            "new_primitives": prim.n_categories_ - self.primitives_.n_categories_,
+            "new_observations": obs.n_categories_ - self.observations_.n_categories_,
+            "fine_tuned": retrained,
+        }
+        if source is not None:
+            record["source"] = str(source)
+        # everything is computed: only now does the model change
+        self.primitives_ = prim
+        self.observations_ = obs
+        self.hmm_ = hmm
+        self.generators_ = gens
+        self.stops_ = stops
+        self.rest_values_ = {c: float(np.median(stops[:, j])) for j, c in enumerate(inputs)}
+        self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
+        self.max_steps_ = int(max(self.max_steps_, 2 * int(lengths.max())))
+        self.updates_ = [*updates, record]
+        if getattr(self, "train_states_", None) is not None:
+            self.train_states_ = np.concatenate([self.train_states_, nominal_states])
+            self.train_observations_ = np.concatenate([self.train_observations_, observations])
+        return self
+
+    def _check_update(self, dataset: Dataset, inputs: tuple[str, ...]) -> None:
+        """Refuse (ConfigError) demonstrations that this fitted model cannot learn from."""
+        if inputs != self.inputs_:
+            raise ConfigError(
+                f"inputs changed since the fit ({','.join(self.inputs_)} -> {','.join(inputs)}); "
+                "an update keeps the model's inputs"
+            )
+        if getattr(self, "stops_", None) is None:
+            raise ConfigError("this model file predates stops_; fit it again to update it")
+        behavior = str(dataset.metadata.get("behavior", "behavior"))
+        if behavior != self.behavior_:
+            raise ConfigError(
+                f"the new demonstrations show {behavior!r}, the model {self.behavior_!r}"
+            )
+        specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
+        for c in inputs:
+            new = (specs.get(c) or known_channel(c)).to_metadata()
+            if new != self.channel_spec(c).to_metadata():
+                raise ConfigError(
+                    f"input {c!r} is declared differently in the new demonstrations "
+                    f"({new}) than in the model ({self.channel_spec(c).to_metadata()})"
+                )
+        declared = getattr(dataset, "command_specs", None) or [
+            CHANNELS[c] for c in COMMAND_CHANNELS
+        ]
+        theirs = [spec.to_metadata() for spec in declared]
+        mine = [spec.to_metadata() for spec in self.command_specs_]
+        if theirs != mine:
+            names = ",".join(str(s["name"]) for s in theirs)
+            raise ConfigError(
+                f"the new demonstrations' commands ({names}) differ from the model's "
+                f"({','.join(self.command_channels)}) or are declared differently"
+            )
+        fitted = self.pipeline_
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, fitted.cutoff_hz)
+        if not math.isclose(pipeline.fs, fitted.fs, rel_tol=1e-9):
+            raise ConfigError(
+                f"the new demonstrations' control period is {1000 / pipeline.fs:g} ms, "
+                f"the model's {1000 / fitted.fs:g} ms"
+            )
+        assert pipeline.ranges is not None and fitted.ranges is not None
+        for c in inputs:
+            if tuple(pipeline.ranges[c]) != tuple(fitted.ranges[c]):
+                raise ConfigError(
+                    f"the new demonstrations' range of {c} is {list(pipeline.ranges[c])}, the "
+                    f"model's {list(fitted.ranges[c])}: another robot"
+                )
+        env = dataset.metadata.get("env") or dataset.metadata.get("simulator")
+        mine_env = self.provenance_.get("env", "unknown")
+        if env and mine_env != "unknown" and str(env) != mine_env:
+            raise ConfigError(
+                f"the new demonstrations come from {env!r}, the model's from {mine_env!r}"
+            )
+        layout = self.feature_layout(len(inputs), int(self.primitives_.window))
+        if self.generators_.n_features_in_ != layout.width:
+            raise ConfigError(
+                "the generator parameters (command_history, generator_output, onset_clock) "
+                "changed since the fit; an update keeps them"
+            )
 
     def _hidden(self, n_channels: int) -> int | tuple[int, ...]:
         if self.hidden is not None:
@@ -590,6 +820,8 @@ class SBLM(LearnedBehavior):
             "train_data": self.train_data_,
             "provenance": dict(self.provenance_),
         }
+        if getattr(self, "updates_", None):  # a model never updated: the file as before
+            state["updates"] = [dict(record) for record in self.updates_]
         return state, arrays
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -660,6 +892,7 @@ class SBLM(LearnedBehavior):
             state["delta_scale"], "delta_scale", positive=True
         )
         model._restore_common(state, inputs)
+        model.updates_ = _check_updates(state.get("updates"))
         if "stops" in arrays:  # files written before it was kept have no stops
             stops = _modelfile.check_array(arrays, "stops", ndim=2)
             if stops.shape[1] != len(inputs) or not 0 < stops.shape[0] <= _modelfile.MAX_STEPS:
@@ -748,6 +981,69 @@ def command_rates(
     ridge = 1e-3 * max(float(np.trace(gram)), 1e-12)
     coef = np.linalg.solve(gram + ridge * np.eye(len(gram)), z.T @ change[keep])
     return np.asarray(basis @ coef, dtype=np.float64)
+
+
+def continued_cobart(net: CobART, x: FloatArray, lengths: Any) -> CobART:
+    """A copy of ``net`` that went on learning on ``x``, compacted as :meth:`SBLM.fit` does.
+
+    The copy learns with :meth:`CobART.partial_fit` (``net`` is left as it was), then
+    relabels ``x`` with its final prototypes (``labels_``). Every category of ``net``
+    keeps its index, whether it wins on ``x`` or not; of the categories ``x`` created,
+    those that win are kept, in order, after them (``kept_``: their indices in the grown
+    network), the others dropped.
+    """
+    grown = CobART(**net.get_params(deep=False))
+    grown.set_state(net.prototypes_, net.counts_, net.dcm_scale_)
+    grown.partial_fit(x, lengths)
+    labels = grown.predict(x, lengths)
+    k_old = net.n_categories_
+    kept = np.r_[np.arange(k_old), np.unique(labels[labels >= k_old])].astype(np.int64)
+    out = CobART(**grown.get_params(deep=False))
+    out.set_state(grown.prototypes_[kept], grown.counts_[kept], grown.dcm_scale_)
+    remap = np.full(grown.n_categories_, -1, dtype=np.int64)
+    remap[kept] = np.arange(kept.size)
+    out.kept_ = kept
+    out.labels_ = remap[labels]
+    return out
+
+
+#: The keys of an update record (``SBLM.updates_``): text, whole numbers, a list of them.
+_UPDATE_TEXT = ("dataset_sha256", "env", "package_version", "source")
+_UPDATE_INTS = ("episodes", "rows", "new_primitives", "new_observations")
+_MAX_UPDATES = 10_000
+
+
+def _check_updates(value: Any) -> list[dict[str, Any]]:
+    """The update records of a model file (none in files of models never updated)."""
+    if value is None:
+        return []
+    if not isinstance(value, list) or len(value) > _MAX_UPDATES:
+        raise ModelFileError(f"updates must be a list of at most {_MAX_UPDATES} records")
+    out = []
+    for entry in value:
+        record = _modelfile.check_mapping(entry, "updates")
+        checked: dict[str, Any] = {}
+        for key, item in record.items():
+            if key in _UPDATE_TEXT:
+                checked[key] = _modelfile.check_text(item, f"updates {key}")
+            elif key in _UPDATE_INTS:
+                checked[key] = _modelfile.check_int(item, f"updates {key}", 0, 2**53)
+            elif key == "fine_tuned":
+                if not isinstance(item, list) or len(item) > _modelfile.MAX_STEPS:
+                    raise ModelFileError("updates fine_tuned must be a list of primitives")
+                checked[key] = [
+                    _modelfile.check_int(p, "updates fine_tuned", 0, 2**31) for p in item
+                ]
+            else:
+                raise ModelFileError(f"unknown key {key!r} in an update record")
+        out.append(checked)
+    return out
+
+
+def _package_version() -> str:
+    from behavior_hmm import __version__
+
+    return str(__version__)
 
 
 def _cobart_params(net: CobART) -> dict[str, Any]:
