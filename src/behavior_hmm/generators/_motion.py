@@ -204,30 +204,7 @@ class MotionGenerators(Estimator):
             if rows.size:
                 theta0[p] = init_weights(rngs[p], sizes, float(self.init_range))
 
-        n_train = np.array([len(tr) for tr, _ in splits], dtype=np.int64)
-        n_test = np.array([len(te) for _, te in splits], dtype=np.int64)
-        x_tr, y_tr = _pad([tr for tr, _ in splits], x, y)
-        x_te, y_te = _pad([te for _, te in splits], x, y)
-        options = self._optimizer_options()
-        momentum = float(options.pop("momentum", 0.0))
-        result = train_stack(
-            theta0,
-            sizes,
-            x_tr,
-            y_tr,
-            n_train,
-            x_te,
-            y_te,
-            n_test,
-            learning_rate=np.full(n_prim, float(self.learning_rate)),
-            momentum=np.full(n_prim, momentum),
-            epochs=int(self.epochs),
-            batch_size=int(self.batch_size),
-            rngs=rngs,
-            early_stopping=bool(self.early_stopping),
-            patience=None if self.patience is None else int(self.patience),
-            **options,
-        )
+        n_train, n_test, result = self._train(theta0, sizes, splits, x, y, rngs)
         theta = result.theta
         theta[n_train == 0] = 0.0
         weights = layer_views(theta, sizes)
@@ -241,6 +218,44 @@ class MotionGenerators(Estimator):
         self.best_epoch_ = result.best_epoch
         self._set_shapes()
         return self
+
+    def _train(
+        self,
+        theta0: NDArray[np.float64],
+        sizes: Any,
+        splits: list[tuple[NDArray[np.intp], NDArray[np.intp]]],
+        x: NDArray[np.float64],
+        y: NDArray[np.float64],
+        rngs: Any,
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], Any]:
+        """Train one network per row of ``theta0`` on its (train, test) rows of ``x``, ``y``:
+        the train and test counts and :func:`train_stack`'s result."""
+        n_train = np.array([len(tr) for tr, _ in splits], dtype=np.int64)
+        n_test = np.array([len(te) for _, te in splits], dtype=np.int64)
+        x_tr, y_tr = _pad([tr for tr, _ in splits], x, y)
+        x_te, y_te = _pad([te for _, te in splits], x, y)
+        options = self._optimizer_options()
+        momentum = float(options.pop("momentum", 0.0))
+        n = len(splits)
+        result = train_stack(
+            theta0,
+            sizes,
+            x_tr,
+            y_tr,
+            n_train,
+            x_te,
+            y_te,
+            n_test,
+            learning_rate=np.full(n, float(self.learning_rate)),
+            momentum=np.full(n, momentum),
+            epochs=int(self.epochs),
+            batch_size=int(self.batch_size),
+            rngs=rngs,
+            early_stopping=bool(self.early_stopping),
+            patience=None if self.patience is None else int(self.patience),
+            **options,
+        )
+        return n_train, n_test, result
 
     def partial_fit(
         self,
@@ -324,30 +339,7 @@ class MotionGenerators(Estimator):
                     w[0, -1, :] = b[p]
             else:
                 theta0[i] = init_weights(rng, sizes, float(self.init_range))
-        n_train = np.array([len(tr) for tr, _ in splits], dtype=np.int64)
-        n_test = np.array([len(te) for _, te in splits], dtype=np.int64)
-        x_tr, y_tr = _pad([tr for tr, _ in splits], x, y)
-        x_te, y_te = _pad([te for _, te in splits], x, y)
-        options = self._optimizer_options()
-        momentum = float(options.pop("momentum", 0.0))
-        result = train_stack(
-            theta0,
-            sizes,
-            x_tr,
-            y_tr,
-            n_train,
-            x_te,
-            y_te,
-            n_test,
-            learning_rate=np.full(which.size, float(self.learning_rate)),
-            momentum=np.full(which.size, momentum),
-            epochs=int(self.epochs),
-            batch_size=int(self.batch_size),
-            rngs=rngs,
-            early_stopping=bool(self.early_stopping),
-            patience=None if self.patience is None else int(self.patience),
-            **options,
-        )
+        n_train, n_test, result = self._train(theta0, sizes, splits, x, y, rngs)
         weights = layer_views(result.theta, sizes)
 
         def grown(arr: NDArray[Any], fill: Any) -> NDArray[Any]:

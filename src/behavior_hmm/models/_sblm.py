@@ -382,15 +382,9 @@ class SBLM(LearnedBehavior):
         layout = self.feature_layout(len(inputs), int(prim.window), delta_scale)
         features = layout.offline(x, y, lengths)
         target = y if self.generator_output == "command" else np.clip(step / delta_scale, -1, 1)
-        gen_states = states
-        groups = np.repeat(dataset.episode_ids, lengths)
-        if self.segment_margin > 0:
-            rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
-            features, target, groups = features[rows], target[rows], groups[rows]
-        if self.window_noise > 0:
-            features, target, gen_states, groups = self._noisy_copies(
-                features, target, gen_states, groups
-            )
+        features, target, gen_states, groups = self._generator_rows(
+            features, target, states, lengths, dataset.episode_ids
+        )
         gens = MotionGenerators(
             window=int(prim.window),
             hidden=self._hidden(len(inputs)),
@@ -546,15 +540,9 @@ class SBLM(LearnedBehavior):
             target = y
         else:
             target = np.clip(step / self.delta_scale_, -1, 1)
-        gen_states = states
-        groups = np.repeat(dataset.episode_ids, lengths)
-        if self.segment_margin > 0:
-            rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
-            features, target, groups = features[rows], target[rows], groups[rows]
-        if self.window_noise > 0:
-            features, target, gen_states, groups = self._noisy_copies(
-                features, target, gen_states, groups
-            )
+        features, target, gen_states, groups = self._generator_rows(
+            features, target, states, lengths, dataset.episode_ids
+        )
         old = self.generators_
         gens = MotionGenerators.from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
@@ -689,6 +677,27 @@ class SBLM(LearnedBehavior):
             scale = suggest_dcm_scale(x, lengths)
             out["dcm_scale"] = np.maximum(scale, float(self.dcm_floor) * scale.max()).tolist()
         return out
+
+    def _generator_rows(
+        self,
+        features: FloatArray,
+        target: FloatArray,
+        states: Any,
+        lengths: Any,
+        episode_ids: Any,
+    ) -> tuple[FloatArray, FloatArray, Any, Any]:
+        """The generators' training rows: features, targets, primitive and episode of each
+        (``segment_margin`` rows around each primitive, ``window_noise`` copies)."""
+        gen_states = states
+        groups = np.repeat(episode_ids, lengths)
+        if self.segment_margin > 0:
+            rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
+            features, target, groups = features[rows], target[rows], groups[rows]
+        if self.window_noise > 0:
+            features, target, gen_states, groups = self._noisy_copies(
+                features, target, gen_states, groups
+            )
+        return features, target, gen_states, groups
 
     def _noisy_copies(
         self, features: FloatArray, target: FloatArray, states: Any, groups: Any
