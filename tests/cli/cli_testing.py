@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from typer.testing import Result
@@ -16,6 +17,23 @@ Invoke = Callable[[Sequence[object]], Result]
 
 #: Column order of a CSV log with our names.
 CSV_HEADER: tuple[str, ...] = REQUIRED_COLUMNS
+
+
+def all_commands() -> list[tuple[tuple[str, ...], Any]]:
+    """Every command and group of the app, as (path of names, click command)."""
+    import typer.main
+
+    from behavior_hmm.cli import app
+
+    found: list[tuple[tuple[str, ...], Any]] = []
+
+    def walk(path: tuple[str, ...], command: Any) -> None:
+        found.append((path, command))
+        for name, sub in getattr(command, "commands", {}).items():
+            walk((*path, name), sub)
+
+    walk((), typer.main.get_command(app))
+    return found
 
 
 def assert_user_error(result: Result, *needles: str) -> str:

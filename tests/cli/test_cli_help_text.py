@@ -7,27 +7,13 @@ import inspect
 from typing import Any
 
 import pytest
-import typer.main
+from cli_testing import all_commands
 from typer.testing import CliRunner
 
 from behavior_hmm.cli import app
 from behavior_hmm.cli._common import reflow_help
 
-
-def _commands() -> list[tuple[tuple[str, ...], Any]]:
-    """Every command and group below the root, as (path of names, click command)."""
-    found: list[tuple[tuple[str, ...], Any]] = []
-
-    def walk(path: tuple[str, ...], command: Any) -> None:
-        found.append((path, command))
-        for name, sub in getattr(command, "commands", {}).items():
-            walk((*path, name), sub)
-
-    walk((), typer.main.get_command(app))
-    return found
-
-
-COMMANDS = _commands()
+COMMANDS = all_commands()
 IDS = [" ".join(path) or "behavior-hmm" for path, _ in COMMANDS]
 
 

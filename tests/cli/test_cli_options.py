@@ -11,27 +11,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import typer.main
-from cli_testing import Invoke, assert_user_error
+from cli_testing import Invoke, all_commands, assert_user_error
 
 from behavior_hmm import __version__
-from behavior_hmm.cli import app
 
-
-def _commands() -> list[tuple[tuple[str, ...], Any]]:
-    """Every command and group of the app, as (path of names, click command)."""
-    found: list[tuple[tuple[str, ...], Any]] = []
-
-    def walk(path: tuple[str, ...], command: Any) -> None:
-        found.append((path, command))
-        for name, sub in getattr(command, "commands", {}).items():
-            walk((*path, name), sub)
-
-    walk((), typer.main.get_command(app))
-    return found
-
-
-COMMANDS = _commands()
+COMMANDS = all_commands()
 IDS = [" ".join(path) or "behavior-hmm" for path, _ in COMMANDS]
 
 
