@@ -8,6 +8,7 @@ never retrained or modified; the model file embeds their saved bytes unchanged.
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -17,21 +18,25 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.cobart import CobART
+from behavior_hmm.cobart import CobART, suggest_dcm_scale
 from behavior_hmm.data import DEFAULT_CUTOFF_HZ, CommandScaler, Dataset, SignalPipeline
+from behavior_hmm.data._channels import channel as known_channel
 from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._base import LearnedBehavior, check_rate_limit
+from behavior_hmm.models._base import LearnedBehavior, check_rate_limit, dataset_hash
 from behavior_hmm.models._goals import check_goal, check_input_names
 from behavior_hmm.models._sblm import (
     SBLM,
+    _check_updates,
     _cobart_from,
     _cobart_params,
     _jsonable_params,
+    _package_version,
     _prefixed,
+    continued_cobart,
     nominal_episodes,
 )
 
@@ -39,6 +44,11 @@ FloatArray = NDArray[np.float64]
 
 #: Channels a goal can be stated on, in order of preference.
 GOAL_CHANNELS = ("angle", "distance")
+
+#: add_component refuses demonstrations that move an input this many times faster (the
+#: CobART's ``"auto"`` DCM scale) than the CBLM's own demonstrations moved it: the
+#: observation categories, whose DCM scale stays, would split every new window apart.
+DCM_SCALE_RATIO = 100.0
 
 
 def _component_name(model: Any) -> str:
@@ -114,6 +124,13 @@ class CBLM(LearnedBehavior):
         around the switch whose commands stay under ``HANDOVER_REST`` of the command
         scale: the teacher settles each component finer than the goal's tolerance
         (MuJoCo turn & approach: 23 cycles, 0.37 s).
+    effects_ : ndarray of shape (n_components, n_inputs)
+        Each component's mean per-step effect on each input in the demonstrations.
+    updates_ : list of dict
+        One record per :meth:`add_component` since the last :meth:`fit` (saved with the
+        model): the ``component`` added, the new data's ``dataset_sha256``, ``episodes``,
+        ``rows``, ``env``, ``package_version``, ``new_observations`` and the ``source``
+        file, if given.
     """
 
     kind = "CBLM"
@@ -213,18 +230,7 @@ class CBLM(LearnedBehavior):
                 "complex demonstrations need a 'behavior' column naming the active component",
                 field="behavior",
             )
-        index = {name: i for i, name in enumerate(names)}
-        states = np.empty(len(tags), dtype=np.int64)
-        for row, tag in enumerate(tags):
-            if tag not in index:
-                episode = int(np.searchsorted(dataset.offsets, row, side="right") - 1)
-                raise DatasetError(
-                    f"behavior '{tag}' is not a component (components: {', '.join(names)})",
-                    episode=int(dataset.episode_ids[episode]),
-                    row=int(row - dataset.offsets[episode]),
-                    field="behavior",
-                )
-            states[row] = index[tag]
+        states = _tag_states(dataset, tags, names)
         pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
@@ -280,7 +286,249 @@ class CBLM(LearnedBehavior):
         self.train_data_: str | None = None  # set by the command line to the data file
         self._record_provenance(dataset)
         self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
+        self.updates_: list[dict[str, Any]] = []  # add_component's records
         return self
+
+    # ----------------------------------------------------------- add_component
+    def add_component(
+        self,
+        model: Any,
+        dataset: Dataset,
+        *,
+        source: str | os.PathLike[str] | None = None,
+    ) -> CBLM:
+        """Learn a new behavior incrementally: ``model`` joins the fitted CBLM as a state.
+
+        The thesis's on-line scheme (section 7.1): the structure (a new state) and the
+        parameters of the Behavior-HMM are updated from demonstrations of the new
+        behavior only; no component is retrained, and the demonstrations the CBLM was
+        fitted on are not needed. ``model`` becomes state ``K`` (the next index); the
+        demonstrations' ``behavior`` column names, on every row, the new component or an
+        existing one (episodes of the new component alone, or episodes that switch from
+        existing components into it).
+
+        What stays, bit for bit:
+
+        * Every existing component (its embedded file is byte-identical), ``inputs_``,
+          ``pipeline_`` (the new readings go through the fitted filter and ranges; the
+          demonstrations must have the same ranges and control period), ``provenance_``
+          and ``train_data_`` (those of the fit).
+        * Every existing observation category index; prototypes no new window resonates
+          with; ``dcm_scale_`` (the observations' rate scale, from the fitted
+          demonstrations: demonstrations that move an input over ``DCM_SCALE_RATIO``
+          times faster are refused, e.g. approach joining a CBLM of turn fitted at
+          distance 0, where the distance moved by rounding only).
+        * The existing rows of ``effects_``: the old demonstrations' steps are not stored,
+          so a component's mean effect is kept as the fit learned it, even when the new
+          demonstrations run that component too.
+        * ``rest_values_`` (the median of the old demonstrations' final readings, which
+          are not stored) and ``default_goal_`` (from the inputs alone: angle 0,
+          distance 0).
+
+        What moves:
+
+        * ``components_`` and ``names_`` gain ``model`` at index ``K``.
+        * ``observations_`` learns on the new demonstrations with
+          :meth:`CobART.partial_fit`, as :meth:`SBLM.partial_fit` continues its
+          CobARTs: resonating prototypes move, new categories are added at the end (those
+          that win none of the new windows dropped), no index changes.
+        * ``hmm_``: one more state and the new categories; the new rows' (component,
+          category) labels are counted in with :meth:`BehaviorHMM.partial_fit`, so the
+          tables equal the old counts plus the new episodes' counts.
+        * ``effects_`` gains row ``K``: the new component's mean per-step effect on each
+          input over the new demonstrations' rows it is active on.
+        * ``command_scale_``, ``command_scales_`` and ``delta_scale_``: the larger of the
+          fitted value and the new demonstrations' (the maxima :meth:`fit` would take on
+          all demonstrations together).
+        * ``max_steps_``: the larger of the fitted value, twice the longest new
+          demonstration and the components' step limits summed (what :meth:`fit` takes).
+        * ``handover_cycles_``: kept when it is above 0; a CBLM whose demonstrations
+          never paused at a switch (0: e.g. a single component) takes the new
+          demonstrations' median pause (the old switches' pauses are not stored).
+        * ``behavior_``: the new demonstrations' ``behavior`` metadata (the composed
+          behavior they show, e.g. ``turn-approach`` when approach joins turn), unless it
+          names the new component itself (demonstrations of it alone): then kept.
+        * ``updates_`` gets one record per update (the component's name, the new data's
+          hash, episodes, rows, env, package version, new categories and ``source``),
+          saved in the model file.
+
+        Parameters
+        ----------
+        model
+            A fitted SBLM or CBLM, named by its ``behavior_``, that is not yet a
+            component. It must command the CBLM's command channels and read only inputs
+            the CBLM or its components read.
+        dataset
+            Demonstrations tagged per row with the active component (``behavior``
+            column), with the CBLM's input channels (same declarations and ranges),
+            command channels and control period, from the same robot.
+        source
+            The file the demonstrations came from, recorded in the update's record.
+
+        Returns
+        -------
+        CBLM
+            ``self``. Nothing is changed when an error is raised.
+
+        Raises
+        ------
+        NotFittedError
+            The CBLM is not fitted.
+        ConfigError
+            A model that is not a fitted behavior, is already a component, commands other
+            channels or reads inputs no component needs; demonstrations of another
+            robot, rates or channels, that never run the new component, or that move an
+            input far faster than the CBLM's demonstrations did (``DCM_SCALE_RATIO``).
+        DatasetError
+            Untagged demonstrations, or a tag that names no component.
+        """
+        self._check_fitted()
+        self.check_params()
+        if not isinstance(dataset, Dataset):
+            raise ConfigError(
+                f"add_component expects a behavior_hmm.data.Dataset, got {type(dataset)}"
+            )
+        if getattr(model, "kind", None) not in ("SBLM", "CBLM") or not hasattr(model, "hmm_"):
+            raise ConfigError("the new component must be a fitted SBLM or CBLM")
+        name = _component_name(model)
+        if name in self.names_:
+            raise ConfigError(f"{name} is already a component ({', '.join(self.names_)})")
+        needed = set(self.inputs_).union(*(c.inputs_ for c in self.components_))
+        extra = [c for c in model.inputs_ if c not in needed]
+        if extra:
+            raise ConfigError(
+                f"component {name} reads {', '.join(extra)}, which neither the CBLM nor its "
+                f"components read ({', '.join(sorted(needed))})"
+            )
+        if tuple(model.command_channels) != tuple(self.command_channels):
+            raise ConfigError(
+                f"component {name} commands {', '.join(model.command_channels)}; the CBLM "
+                f"commands {', '.join(self.command_channels)}"
+            )
+        inputs = tuple(self.inputs_)
+        missing = [c for c in inputs if c not in dataset.sensor_channels]
+        if missing:
+            raise ConfigError(
+                f"the demonstrations lack the CBLM's input(s) {', '.join(missing)} "
+                f"(they have {', '.join(dataset.sensor_channels)})"
+            )
+        self._check_new_demonstrations(dataset, inputs)
+        nominal = nominal_episodes(dataset)
+        if not nominal.all():  # as in fit: a CBLM learns from nominal runs only
+            dataset = dataset.subset(np.flatnonzero(nominal))
+        tags = dataset.behavior
+        if tags is None:
+            raise DatasetError(
+                "complex demonstrations need a 'behavior' column naming the active component",
+                field="behavior",
+            )
+        names = [*self.names_, name]
+        components = [*self.components_, model]
+        k = len(self.names_)
+        states = _tag_states(dataset, tags, names)
+        if not (states == k).any():
+            raise ConfigError(f"the demonstrations never run the new component {name}")
+        x = self.pipeline_.transform(dataset)
+        lengths = dataset.lengths
+        fitted_scale = self.observations_.dcm_scale_
+        new_scale = suggest_dcm_scale(x, lengths)
+        for j, c in enumerate(inputs):
+            if fitted_scale[j] * DCM_SCALE_RATIO < new_scale[j]:
+                raise ConfigError(
+                    f"the CBLM's demonstrations barely moved {c} (DCM scale "
+                    f"{fitted_scale[j]:.2g}, the new ones' {new_scale[j]:.2g}): its "
+                    f"categories cannot follow the new motion; fit a CBLM on "
+                    f"demonstrations of all its components"
+                )
+        obs = continued_cobart(self.observations_, x, lengths)
+        hmm = BehaviorHMM.from_arrays(self.hmm_.to_arrays(), self.hmm_.params)
+        hmm.set_params(n_states=len(names), n_observations=obs.n_categories_)
+        hmm.partial_fit(states, obs.labels_, lengths)
+        raw = dataset.columns(inputs)
+        wraps = [self.channel_spec(c).wraps for c in inputs]
+        effect = _effects(states, raw, lengths, len(names), wraps)[k]
+        commands = np.asarray(dataset.commands, dtype=np.float64)
+        scale = max(self.command_scale_, float(np.max(np.abs(commands))))
+        units = [spec.unit for spec in self.command_specs_]
+        if len(set(units)) > 1:
+            scales = np.maximum(self.command_scales_, CommandScaler(units).fit(commands).scales_)
+        else:
+            scales = np.full(len(units), scale)
+        handover = self.handover_cycles_
+        if handover == 0:
+            handover = _handover_cycles(commands, states, lengths, scale)
+        behavior = str(dataset.metadata.get("behavior") or self.behavior_)
+        record: dict[str, Any] = {
+            "component": name,
+            "dataset_sha256": dataset_hash(dataset),
+            "episodes": len(dataset),
+            "rows": int(dataset.n_samples),
+            "env": str(
+                dataset.metadata.get("env") or dataset.metadata.get("simulator") or "unknown"
+            ),
+            "package_version": _package_version(),
+            "new_observations": obs.n_categories_ - self.observations_.n_categories_,
+        }
+        if source is not None:
+            record["source"] = str(source)
+        # everything is computed: only now does the model change
+        self.components = components
+        self.components_ = components
+        self.names_ = names
+        self.observations_ = obs
+        self.__dict__.pop("_latest_physical", None)  # cache of category_values
+        self.hmm_ = hmm
+        self.effects_ = np.vstack([self.effects_, effect[None, :]])
+        self.command_scale_ = scale
+        self.command_scales_ = np.asarray(scales, dtype=np.float64)
+        self.delta_scale_ = max(self.delta_scale_, _largest_step(commands, lengths))
+        self.handover_cycles_ = int(handover)
+        self.max_steps_ = int(
+            max(self.max_steps_, 2 * int(lengths.max()), sum(c.max_steps_ for c in components))
+        )
+        if behavior != name:
+            self.behavior_ = behavior
+        self.updates_ = [*getattr(self, "updates_", []), record]
+        return self
+
+    def _check_new_demonstrations(self, dataset: Dataset, inputs: tuple[str, ...]) -> None:
+        """Refuse demonstrations the fitted pipeline, commands or robot cannot take."""
+        specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
+        for c in inputs:
+            new = (specs.get(c) or known_channel(c)).to_metadata()
+            if new != self.channel_spec(c).to_metadata():
+                raise ConfigError(
+                    f"input {c!r} is declared differently in the new demonstrations "
+                    f"({new}) than in the model ({self.channel_spec(c).to_metadata()})"
+                )
+        theirs = [spec.to_metadata() for spec in dataset.command_specs]
+        mine = [spec.to_metadata() for spec in self.command_specs_]
+        if theirs != mine:
+            names = ",".join(str(s["name"]) for s in theirs)
+            raise ConfigError(
+                f"the new demonstrations' commands ({names}) differ from the CBLM's "
+                f"({','.join(self.command_channels)}) or are declared differently"
+            )
+        fitted = self.pipeline_
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, fitted.cutoff_hz)
+        if not math.isclose(pipeline.fs, fitted.fs, rel_tol=1e-9):
+            raise ConfigError(
+                f"the new demonstrations' control period is {1000 / pipeline.fs:g} ms, "
+                f"the model's {1000 / fitted.fs:g} ms"
+            )
+        assert pipeline.ranges is not None and fitted.ranges is not None
+        for c in inputs:
+            if tuple(pipeline.ranges[c]) != tuple(fitted.ranges[c]):
+                raise ConfigError(
+                    f"the new demonstrations' range of {c} is {list(pipeline.ranges[c])}, the "
+                    f"model's {list(fitted.ranges[c])}: another robot"
+                )
+        env = dataset.metadata.get("env") or dataset.metadata.get("simulator")
+        mine_env = self.provenance_.get("env", "unknown")
+        if env and mine_env != "unknown" and str(env) != mine_env:
+            raise ConfigError(
+                f"the new demonstrations come from {env!r}, the model's from {mine_env!r}"
+            )
 
     # ----------------------------------------------------------------- queries
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:
@@ -380,6 +628,8 @@ class CBLM(LearnedBehavior):
             "train_data": self.train_data_,
             "provenance": dict(self.provenance_),
         }
+        if getattr(self, "updates_", None):  # a model never updated: the file as before
+            state["updates"] = [dict(record) for record in self.updates_]
         params = _jsonable_params({k: v for k, v in self.get_params().items() if k != "components"})
         _modelfile.dump(path, self.kind, params, state, arrays)
 
@@ -454,7 +704,42 @@ class CBLM(LearnedBehavior):
         )
         model._restore_common(state, inputs)
         model._restore_commands(state)
+        model.updates_ = _check_component_updates(state.get("updates"), names)
         return model
+
+
+def _tag_states(dataset: Dataset, tags: Any, names: Sequence[str]) -> np.ndarray:
+    """The component index of every row, from its ``behavior`` tag (DatasetError if none)."""
+    index = {name: i for i, name in enumerate(names)}
+    states = np.empty(len(tags), dtype=np.int64)
+    for row, tag in enumerate(tags):
+        if tag not in index:
+            episode = int(np.searchsorted(dataset.offsets, row, side="right") - 1)
+            raise DatasetError(
+                f"behavior '{tag}' is not a component (components: {', '.join(names)})",
+                episode=int(dataset.episode_ids[episode]),
+                row=int(row - dataset.offsets[episode]),
+                field="behavior",
+            )
+        states[row] = index[tag]
+    return states
+
+
+def _check_component_updates(value: Any, names: Sequence[str]) -> list[dict[str, Any]]:
+    """The add_component records of a model file: an SBLM update record plus the name of
+    the component it added (one of the model's)."""
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise ModelFileError("updates must be a list of records")
+    out = []
+    for entry in value:
+        record = dict(_modelfile.check_mapping(entry, "updates"))
+        added = _modelfile.check_text(record.pop("component", None), "updates component")
+        if added not in names:
+            raise ModelFileError(f"updates: {added!r} is not a component")
+        out.append({"component": added, **_check_updates([record])[0]})
+    return out
 
 
 def _model_bytes(model: Any) -> bytes:
