@@ -87,8 +87,8 @@ def train_simple(
     inputs: Annotated[
         str | None,
         typer.Option(
-            help="Input channels, e.g. angle,angular_velocity (required, except with "
-            "--update: the model's)"
+            help="Input channels, e.g. angle,angular_velocity, or auto: chosen from the "
+            "demonstrations (required, except with --update: the model's)"
         ),
     ] = None,
     seed: Annotated[
@@ -129,14 +129,26 @@ def train_simple(
         raise ConfigError("--inputs is required, e.g. --inputs angle (or --update MODEL)")
     check_outputs({"DATA": data, "--config": config}, {"-o": out})
     _, params = model_params(("SBLM",), preset, config, set_)
-    model = SBLM(**params["SBLM"], inputs=_inputs(inputs), random_state=seed or 0)
+    auto = inputs.strip().lower() == "auto"
+    names = ["angle"] if auto else _inputs(inputs)  # auto: checked again once chosen
+    model = SBLM(**params["SBLM"], inputs=names, random_state=seed or 0)
     model.check_params()  # before any data is read
     dataset = bdata.read(data)
     log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
+    choice = None
+    if auto:
+        from behavior_hmm.models import select_inputs
+
+        sblm_params = {k: v for k, v in params["SBLM"].items() if k != "inputs"}
+        choice = select_inputs(dataset, random_state=seed or 0, **sblm_params)
+        typer.echo(choice.summary() + f": {choice.reason}")
+        model.set_params(inputs=list(choice.inputs))
     t0 = time.perf_counter()
     with spinner(f"train simple on {data.name}"):
         model.fit(dataset)
     model.set_training_data(data)
+    if choice is not None:
+        model.provenance_ = {**model.provenance_, "inputs_selection": choice.reason}
     model.save(out)
     typer.echo(
         f"wrote {out}: {model.behavior_} on {','.join(model.inputs_)}, "
@@ -201,17 +213,37 @@ def _update_simple(
 @user_errors
 def train_complex(
     data: Annotated[Path, typer.Argument(help="Tagged demonstrations (behavior column)")],
-    component: Annotated[list[Path], typer.Option(help="A learned behavior (.bhmm), repeatable")],
+    component: Annotated[
+        list[Path],
+        typer.Option(help="A learned behavior (.bhmm), repeatable (--update: the new one)"),
+    ],
     out: ModelOut,
-    inputs: Annotated[str, typer.Option(help="Input channels")] = "distance,angle",
+    inputs: Annotated[
+        str | None,
+        typer.Option(help="Input channels (default distance,angle; --update: the model's)"),
+    ] = None,
     preset: PresetOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,
+    update: Annotated[
+        Path | None,
+        typer.Option(
+            "--update",
+            help="A complex behavior's model (.bhmm) that the one --component joins, learned "
+            "from DATA (left unchanged; -o gets the result)",
+        ),
+    ] = None,
 ) -> None:
     """Compose learned behaviors (CBLM) from demonstrations tagged per row.
 
     The preset, config and --set choose the CBLM's own parameters; the components
     keep theirs.
+
+    With --update MODEL a new behavior (the one --component) joins the complex behavior
+    MODEL, learned from DATA, demonstrations tagged with it (CBLM.add_component): no
+    component is retrained and MODEL's own demonstrations are not needed. The model keeps
+    its parameters and inputs, so --preset, --config, --set and other --inputs are
+    refused; MODEL is left unchanged.
 
     Example: behavior-hmm train complex data/ta.parquet --component models/turn.bhmm
     --component models/approach.bhmm --preset thesis -o models/ta.bhmm
@@ -220,6 +252,41 @@ def train_complex(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.models import CBLM, describe_params
 
+    if update is not None:
+        for option, value in (("--preset", preset), ("--config", config), ("--set", set_)):
+            if value:
+                raise ConfigError(f"{option} cannot be used with --update: the model keeps its own")
+        if len(component) != 1:
+            raise ConfigError(
+                f"--update adds one component at a time: give one --component, not {len(component)}"
+            )
+        check_outputs({"DATA": data, "--update": update, "--component": component}, {"-o": out})
+        model = load_model(update)
+        if not isinstance(model, CBLM):
+            raise ConfigError(f"--update {update}: a {model.kind}, not a complex behavior (CBLM)")
+        if inputs is not None and tuple(_inputs(inputs)) != tuple(model.inputs_):
+            raise ConfigError(
+                f"--inputs {inputs}: the model reads {','.join(model.inputs_)}; "
+                "an update keeps its inputs"
+            )
+        new = load_model(component[0])
+        dataset = bdata.read(data)
+        log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
+        before = model.observations_.n_categories_
+        t0 = time.perf_counter()
+        with spinner(f"add {component[0].name} to {update.name} with {data.name}"):
+            model.add_component(new, dataset, source=data)
+        model.save(out)
+        typer.echo(
+            f"wrote {out}: {model.behavior_} over {', '.join(model.names_)} on "
+            f"{','.join(model.inputs_)}, {model.names_[-1]} added from {len(dataset)} "
+            f"demonstrations, {model.observations_.n_categories_} observation categories "
+            f"(+{model.observations_.n_categories_ - before}) "
+            f"({time.perf_counter() - t0:.1f} s); {update} and components unchanged"
+        )
+        return
+    if inputs is None:
+        inputs = "distance,angle"
     check_outputs({"DATA": data, "--component": component, "--config": config}, {"-o": out})
     _, params = model_params(("CBLM",), preset, config, set_)
     CBLM(**params["CBLM"]).check_params()  # before any file is read

@@ -7,6 +7,7 @@ is listed in :data:`DEPARTURES`.
 
 from behavior_hmm.models._cblm import CBLM
 from behavior_hmm.models._config import read_config, resolve_params
+from behavior_hmm.models._inputs import InputChoice, select_inputs
 from behavior_hmm.models._load import MODEL_KINDS, load
 from behavior_hmm.models._policy import perform
 from behavior_hmm.models._presets import (
@@ -25,10 +26,12 @@ __all__ = [
     "PRESETS",
     "SBLM",
     "Departure",
+    "InputChoice",
     "describe_params",
     "load",
     "perform",
     "preset_params",
     "read_config",
     "resolve_params",
+    "select_inputs",
 ]

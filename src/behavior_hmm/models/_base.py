@@ -321,6 +321,7 @@ PROVENANCE_KEYS = (
     "dataset_sha256",
     "train_data",
     "train_data_absolute",
+    "inputs_selection",  # train simple --inputs auto: the choice's reason (issue 30)
 )
 
 
