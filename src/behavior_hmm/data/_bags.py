@@ -359,11 +359,11 @@ def _read_bag(
             short.append(f"{per_topic[topic]:,} of the {listed:,} messages on {topic}")
     if short:
         more = f" (and {len(short) - 1} more topics)" if len(short) > 1 else ""
-        warnings.warn(
-            DataImportWarning(
-                f"{bag}: read {short[0]}{more} that its index lists; the bag may be damaged"
-            ),
-            stacklevel=3,
+        # damage rosbags does not raise on (a corrupt chunk read as a shorter bag): the
+        # bag is refused, not imported short
+        raise DatasetError(
+            f"damaged bag: read {short[0]}{more} that its index lists",
+            file=bag,
         )
     for s in series.values():
         s.finish()
