@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -13,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm._estimator import Estimator
+from behavior_hmm.data import SignalPipeline
 from behavior_hmm.data._channels import (
     CHANNELS,
     COMMAND_CHANNELS,
@@ -207,6 +209,51 @@ class LearnedBehavior(Estimator):
         self.command_scales_ = np.array(
             [_modelfile.check_number(v, "command_scales", positive=True) for v in scales]
         )
+
+    def _check_same_robot(self, dataset: Any, inputs: tuple[str, ...], owner: str) -> None:
+        """Refuse (ConfigError) new demonstrations of another robot than the fitted one:
+        inputs or commands declared differently, another control period, other
+        normalization ranges, or another env when both name one. ``owner`` names the
+        model in the messages (``"model's"``, ``"CBLM's"``)."""
+        specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
+        for c in inputs:
+            new = (specs.get(c) or channel(c)).to_metadata()
+            if new != self.channel_spec(c).to_metadata():
+                raise ConfigError(
+                    f"input {c!r} is declared differently in the new demonstrations "
+                    f"({new}) than in the model ({self.channel_spec(c).to_metadata()})"
+                )
+        declared = getattr(dataset, "command_specs", None) or [
+            CHANNELS[c] for c in COMMAND_CHANNELS
+        ]
+        theirs = [spec.to_metadata() for spec in declared]
+        mine = [spec.to_metadata() for spec in self.command_specs_]
+        if theirs != mine:
+            names = ",".join(str(s["name"]) for s in theirs)
+            raise ConfigError(
+                f"the new demonstrations' commands ({names}) differ from the {owner} "
+                f"({','.join(self.command_channels)}) or are declared differently"
+            )
+        fitted = self.pipeline_
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, fitted.cutoff_hz)
+        if not math.isclose(pipeline.fs, fitted.fs, rel_tol=1e-9):
+            raise ConfigError(
+                f"the new demonstrations' control period is {1000 / pipeline.fs:g} ms, "
+                f"the model's {1000 / fitted.fs:g} ms"
+            )
+        assert pipeline.ranges is not None and fitted.ranges is not None
+        for c in inputs:
+            if tuple(pipeline.ranges[c]) != tuple(fitted.ranges[c]):
+                raise ConfigError(
+                    f"the new demonstrations' range of {c} is {list(pipeline.ranges[c])}, the "
+                    f"model's {list(fitted.ranges[c])}: another robot"
+                )
+        env = dataset.metadata.get("env") or dataset.metadata.get("simulator")
+        mine_env = self.provenance_.get("env", "unknown")
+        if env and mine_env != "unknown" and str(env) != mine_env:
+            raise ConfigError(
+                f"the new demonstrations come from {env!r}, the model's from {mine_env!r}"
+            )
 
     def channel_spec(self, name: str) -> ChannelSpec:
         """The declaration of the input channel ``name`` (the model's own, else the registry's)."""

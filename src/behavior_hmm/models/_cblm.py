@@ -8,7 +8,6 @@ never retrained or modified; the model file embeds their saved bytes unchanged.
 
 from __future__ import annotations
 
-import math
 import os
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -20,7 +19,6 @@ from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART, suggest_dcm_scale
 from behavior_hmm.data import DEFAULT_CUTOFF_HZ, CommandScaler, Dataset, SignalPipeline
-from behavior_hmm.data._channels import channel as known_channel
 from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
@@ -493,42 +491,7 @@ class CBLM(LearnedBehavior):
 
     def _check_new_demonstrations(self, dataset: Dataset, inputs: tuple[str, ...]) -> None:
         """Refuse demonstrations the fitted pipeline, commands or robot cannot take."""
-        specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
-        for c in inputs:
-            new = (specs.get(c) or known_channel(c)).to_metadata()
-            if new != self.channel_spec(c).to_metadata():
-                raise ConfigError(
-                    f"input {c!r} is declared differently in the new demonstrations "
-                    f"({new}) than in the model ({self.channel_spec(c).to_metadata()})"
-                )
-        theirs = [spec.to_metadata() for spec in dataset.command_specs]
-        mine = [spec.to_metadata() for spec in self.command_specs_]
-        if theirs != mine:
-            names = ",".join(str(s["name"]) for s in theirs)
-            raise ConfigError(
-                f"the new demonstrations' commands ({names}) differ from the CBLM's "
-                f"({','.join(self.command_channels)}) or are declared differently"
-            )
-        fitted = self.pipeline_
-        pipeline = SignalPipeline.for_dataset(dataset, inputs, fitted.cutoff_hz)
-        if not math.isclose(pipeline.fs, fitted.fs, rel_tol=1e-9):
-            raise ConfigError(
-                f"the new demonstrations' control period is {1000 / pipeline.fs:g} ms, "
-                f"the model's {1000 / fitted.fs:g} ms"
-            )
-        assert pipeline.ranges is not None and fitted.ranges is not None
-        for c in inputs:
-            if tuple(pipeline.ranges[c]) != tuple(fitted.ranges[c]):
-                raise ConfigError(
-                    f"the new demonstrations' range of {c} is {list(pipeline.ranges[c])}, the "
-                    f"model's {list(fitted.ranges[c])}: another robot"
-                )
-        env = dataset.metadata.get("env") or dataset.metadata.get("simulator")
-        mine_env = self.provenance_.get("env", "unknown")
-        if env and mine_env != "unknown" and str(env) != mine_env:
-            raise ConfigError(
-                f"the new demonstrations come from {env!r}, the model's from {mine_env!r}"
-            )
+        self._check_same_robot(dataset, inputs, "CBLM's")
 
     # ----------------------------------------------------------------- queries
     def resolve_goal(self, goal: Mapping[str, float] | None) -> dict[str, float]:

@@ -20,8 +20,7 @@ from behavior_hmm.data import (
     Dataset,
     SignalPipeline,
 )
-from behavior_hmm.data._channels import CHANNELS, ChannelSpec
-from behavior_hmm.data._channels import channel as known_channel
+from behavior_hmm.data._channels import ChannelSpec
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
 from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
 from behavior_hmm.generators._features import (
@@ -603,45 +602,7 @@ class SBLM(LearnedBehavior):
             raise ConfigError(
                 f"the new demonstrations show {behavior!r}, the model {self.behavior_!r}"
             )
-        specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
-        for c in inputs:
-            new = (specs.get(c) or known_channel(c)).to_metadata()
-            if new != self.channel_spec(c).to_metadata():
-                raise ConfigError(
-                    f"input {c!r} is declared differently in the new demonstrations "
-                    f"({new}) than in the model ({self.channel_spec(c).to_metadata()})"
-                )
-        declared = getattr(dataset, "command_specs", None) or [
-            CHANNELS[c] for c in COMMAND_CHANNELS
-        ]
-        theirs = [spec.to_metadata() for spec in declared]
-        mine = [spec.to_metadata() for spec in self.command_specs_]
-        if theirs != mine:
-            names = ",".join(str(s["name"]) for s in theirs)
-            raise ConfigError(
-                f"the new demonstrations' commands ({names}) differ from the model's "
-                f"({','.join(self.command_channels)}) or are declared differently"
-            )
-        fitted = self.pipeline_
-        pipeline = SignalPipeline.for_dataset(dataset, inputs, fitted.cutoff_hz)
-        if not math.isclose(pipeline.fs, fitted.fs, rel_tol=1e-9):
-            raise ConfigError(
-                f"the new demonstrations' control period is {1000 / pipeline.fs:g} ms, "
-                f"the model's {1000 / fitted.fs:g} ms"
-            )
-        assert pipeline.ranges is not None and fitted.ranges is not None
-        for c in inputs:
-            if tuple(pipeline.ranges[c]) != tuple(fitted.ranges[c]):
-                raise ConfigError(
-                    f"the new demonstrations' range of {c} is {list(pipeline.ranges[c])}, the "
-                    f"model's {list(fitted.ranges[c])}: another robot"
-                )
-        env = dataset.metadata.get("env") or dataset.metadata.get("simulator")
-        mine_env = self.provenance_.get("env", "unknown")
-        if env and mine_env != "unknown" and str(env) != mine_env:
-            raise ConfigError(
-                f"the new demonstrations come from {env!r}, the model's from {mine_env!r}"
-            )
+        self._check_same_robot(dataset, inputs, "model's")
         layout = self.feature_layout(len(inputs), int(self.primitives_.window))
         if self.generators_.n_features_in_ != layout.width:
             raise ConfigError(
