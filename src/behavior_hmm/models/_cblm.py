@@ -216,19 +216,7 @@ class CBLM(LearnedBehavior):
         inputs, components, names = self._checked(getattr(dataset, "sensor_channels", None))
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
-        nominal = nominal_episodes(dataset)
-        if not nominal.all():
-            # corrective demonstrations (collect --corrections) teach generators to recover;
-            # a CBLM has none, and their disturbed runs would only distort its categories,
-            # its transitions and the command scale of its success rate
-            dataset = dataset.subset(np.flatnonzero(nominal))
-        tags = dataset.behavior
-        if tags is None:
-            raise DatasetError(
-                "complex demonstrations need a 'behavior' column naming the active component",
-                field="behavior",
-            )
-        states = _tag_states(dataset, tags, names)
+        dataset, states = _nominal_tagged(dataset, names)
         pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
         x = pipeline.transform(dataset)
         lengths = dataset.lengths
@@ -411,19 +399,10 @@ class CBLM(LearnedBehavior):
                 f"(they have {', '.join(dataset.sensor_channels)})"
             )
         self._check_new_demonstrations(dataset, inputs)
-        nominal = nominal_episodes(dataset)
-        if not nominal.all():  # as in fit: a CBLM learns from nominal runs only
-            dataset = dataset.subset(np.flatnonzero(nominal))
-        tags = dataset.behavior
-        if tags is None:
-            raise DatasetError(
-                "complex demonstrations need a 'behavior' column naming the active component",
-                field="behavior",
-            )
         names = [*self.names_, name]
         components = [*self.components_, model]
         k = len(self.names_)
-        states = _tag_states(dataset, tags, names)
+        dataset, states = _nominal_tagged(dataset, names)
         if not (states == k).any():
             raise ConfigError(f"the demonstrations never run the new component {name}")
         x = self.pipeline_.transform(dataset)
@@ -669,6 +648,25 @@ class CBLM(LearnedBehavior):
         model._restore_commands(state)
         model.updates_ = _check_component_updates(state.get("updates"), names)
         return model
+
+
+def _nominal_tagged(dataset: Dataset, names: list[str]) -> tuple[Dataset, np.ndarray]:
+    """The nominal demonstrations and the component index of each of their rows.
+
+    Corrective demonstrations (collect --corrections) teach generators to recover; a CBLM
+    has none, and their disturbed runs would only distort its categories, its transitions
+    and the command scale of its success rate.
+    """
+    nominal = nominal_episodes(dataset)
+    if not nominal.all():
+        dataset = dataset.subset(np.flatnonzero(nominal))
+    tags = dataset.behavior
+    if tags is None:
+        raise DatasetError(
+            "complex demonstrations need a 'behavior' column naming the active component",
+            field="behavior",
+        )
+    return dataset, _tag_states(dataset, tags, names)
 
 
 def _tag_states(dataset: Dataset, tags: Any, names: Sequence[str]) -> np.ndarray:
