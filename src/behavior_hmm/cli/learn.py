@@ -174,18 +174,9 @@ def _update_simple(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.models import SBLM
 
-    for option, value in (("--preset", preset), ("--config", config), ("--set", set_)):
-        if value:
-            raise ConfigError(f"{option} cannot be used with --update: the model keeps its own")
+    _refuse_with_update(preset, config, set_)
     check_outputs({"DATA": data, "--update": update}, {"-o": out})
-    model = load_model(update)
-    if not isinstance(model, SBLM):
-        raise ConfigError(f"--update {update}: a {model.kind}, not a simple behavior (SBLM)")
-    if inputs is not None and tuple(_inputs(inputs)) != tuple(model.inputs_):
-        raise ConfigError(
-            f"--inputs {inputs}: the model reads {','.join(model.inputs_)}; "
-            "an update keeps its inputs"
-        )
+    model = _model_to_update(update, SBLM, "a simple behavior (SBLM)", inputs)
     if seed is not None and seed != model.random_state:
         raise ConfigError(
             f"--seed {seed}: an update draws from the model's seed ({model.random_state})"
@@ -253,22 +244,13 @@ def train_complex(
     from behavior_hmm.models import CBLM, describe_params
 
     if update is not None:
-        for option, value in (("--preset", preset), ("--config", config), ("--set", set_)):
-            if value:
-                raise ConfigError(f"{option} cannot be used with --update: the model keeps its own")
+        _refuse_with_update(preset, config, set_)
         if len(component) != 1:
             raise ConfigError(
                 f"--update adds one component at a time: give one --component, not {len(component)}"
             )
         check_outputs({"DATA": data, "--update": update, "--component": component}, {"-o": out})
-        model = load_model(update)
-        if not isinstance(model, CBLM):
-            raise ConfigError(f"--update {update}: a {model.kind}, not a complex behavior (CBLM)")
-        if inputs is not None and tuple(_inputs(inputs)) != tuple(model.inputs_):
-            raise ConfigError(
-                f"--inputs {inputs}: the model reads {','.join(model.inputs_)}; "
-                "an update keeps its inputs"
-            )
+        model = _model_to_update(update, CBLM, "a complex behavior (CBLM)", inputs)
         new = load_model(component[0])
         dataset = bdata.read(data)
         log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
@@ -412,6 +394,26 @@ def generate(
         log.info("video: %s", video)
     if not trace.goal_reached:
         raise typer.Exit(code=1)
+
+
+def _refuse_with_update(preset: str | None, config: Path | None, set_: list[str] | None) -> None:
+    """``--preset``, ``--config`` and ``--set`` make no sense with ``--update``."""
+    for option, value in (("--preset", preset), ("--config", config), ("--set", set_)):
+        if value:
+            raise ConfigError(f"{option} cannot be used with --update: the model keeps its own")
+
+
+def _model_to_update(update: Path, kind: type, what: str, inputs: str | None) -> Any:
+    """The model ``--update`` names, of ``kind``, reading the ``--inputs`` given (if any)."""
+    model: Any = load_model(update)
+    if not isinstance(model, kind):
+        raise ConfigError(f"--update {update}: a {model.kind}, not {what}")
+    if inputs is not None and tuple(_inputs(inputs)) != tuple(model.inputs_):
+        raise ConfigError(
+            f"--inputs {inputs}: the model reads {','.join(model.inputs_)}; "
+            "an update keeps its inputs"
+        )
+    return model
 
 
 def _teacher_run(model: Any, robot: Any, trace: Any, seed: int) -> tuple[Any, Any]:
