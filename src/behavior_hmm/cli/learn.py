@@ -403,7 +403,7 @@ def _refuse_with_update(preset: str | None, config: Path | None, set_: list[str]
             raise ConfigError(f"{option} cannot be used with --update: the model keeps its own")
 
 
-def _model_to_update(update: Path, kind: type, what: str, inputs: str | None) -> Any:
+def _model_to_update(update: Path, kind: type[Any], what: str, inputs: str | None) -> Any:
     """The model ``--update`` names, of ``kind``, reading the ``--inputs`` given (if any)."""
     model: Any = load_model(update)
     if not isinstance(model, kind):
