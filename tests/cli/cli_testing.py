@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 from typer.testing import Result
+from user_errors import assert_user_error as assert_user_error  # one for every package
 
 from behavior_hmm.data import CONTROL_PERIOD, REQUIRED_COLUMNS
 
@@ -34,22 +35,6 @@ def all_commands() -> list[tuple[tuple[str, ...], Any]]:
 
     walk((), typer.main.get_command(app))
     return found
-
-
-def assert_user_error(result: Result, *needles: str) -> str:
-    """Exit code 2, exactly one line on stderr starting ``error: ``, no traceback anywhere.
-
-    Returns the error line; each of ``needles`` must occur in it.
-    """
-    assert result.exit_code == 2, (result.exit_code, result.output, result.exception)
-    lines = result.stderr.splitlines()
-    assert len(lines) == 1, result.stderr
-    line = lines[0]
-    assert line.startswith("error: "), line
-    assert "Traceback" not in result.output
-    for needle in needles:
-        assert needle in line, (needle, line)
-    return line
 
 
 def write_starts(path: Path, header: str, *rows: str) -> Path:

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from user_errors import assert_user_error
 
 pytest.importorskip("rosbags")
 
@@ -88,17 +89,6 @@ def point_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _invoke(*args: object) -> Result:
     return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def _user_error(result: Result, *needles: str) -> str:
-    """Exit code 2 and one ``error:`` line holding every needle, no traceback."""
-    assert result.exit_code == 2, (result.exit_code, result.output, result.exception)
-    lines = result.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
-    assert "Traceback" not in result.output
-    for needle in needles:
-        assert needle in lines[0], (needle, lines[0])
-    return lines[0]
 
 
 def _check_values(ds: Dataset) -> None:
@@ -252,9 +242,9 @@ def test_cli_imports_a_robots_own_channels(point_bag: Path, tmp_path: Path) -> N
 def test_cli_refuses_an_undeclared_gripper_in_one_line(gripper_bag: Path, tmp_path: Path) -> None:
     out = tmp_path / "grip.parquet"
     result = _invoke("import-bag", gripper_bag, *_map_args([*WHEELED, "grip"]), "-o", out)
-    _user_error(result, "--map grip: unknown channel", "--command")
+    assert_user_error(result, "--map grip: unknown channel", "--command")
     args = ["import-bag", gripper_bag, *_map_args(WHEELED), "--command", "grip:m/s", "-o", out]
-    _user_error(_invoke(*args), "--command expects NAME:UNIT:LO:HI[:REST]")
+    assert_user_error(_invoke(*args), "--command expects NAME:UNIT:LO:HI[:REST]")
     args = ["import-bag", gripper_bag, *_map_args(WHEELED), "--channel", "ir0:m:1:x", "-o", out]
-    _user_error(_invoke(*args), "--channel ir0:m:1:x: LO, HI and TOLERANCE must be numbers")
+    assert_user_error(_invoke(*args), "--channel ir0:m:1:x: LO, HI and TOLERANCE must be numbers")
     assert not out.exists()

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 from typer.testing import CliRunner, Result
+from user_errors import assert_user_error
 
 from behavior_hmm.cli import app
 from behavior_hmm.data import SENSOR_CHANNELS, Dataset, export_lerobot, import_lerobot, read, write
@@ -92,17 +93,6 @@ def _same(got: Dataset, want: Dataset) -> None:
 
 def _invoke(*args: object) -> Result:
     return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def _user_error(result: Result, *needles: str) -> str:
-    """Exit code 2 and one ``error:`` line holding every needle, no traceback."""
-    assert result.exit_code == 2, (result.exit_code, result.output, result.exception)
-    lines = result.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
-    assert "Traceback" not in result.output
-    for needle in needles:
-        assert needle in lines[0], (needle, lines[0])
-    return lines[0]
 
 
 def _foreign(ds: Dataset, folder: Path) -> Path:
@@ -322,8 +312,8 @@ def test_cli_refuses_a_foreign_gripper_without_its_declaration(
     folder = _foreign(gripper_ds, tmp_path / "theirs")
     out = tmp_path / "mine.parquet"
     result = _invoke("import-lerobot", folder, "--map", "grip=action:2", "-o", out)
-    _user_error(result, "--map grip: unknown channel", "--command")
+    assert_user_error(result, "--map grip: unknown channel", "--command")
     assert not out.exists()
     result = _invoke("import-lerobot", folder, "--command", "grip:m/s:-1", "-o", out)
-    _user_error(result, "--command expects NAME:UNIT:LO:HI[:REST]")
+    assert_user_error(result, "--command expects NAME:UNIT:LO:HI[:REST]")
     shutil.rmtree(folder)
