@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
+from enum import Enum
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import within_tolerance
+from behavior_hmm.data._channels import ChannelSpec, within_tolerance
 from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.models._policy import (
     GoalTracking,
@@ -23,6 +24,233 @@ from behavior_hmm.runtime._policy import StepOutput
 FloatArray = NDArray[np.float64]
 
 
+class Phase(Enum):
+    """The run state of a complex behavior's policy (:attr:`ComplexPolicy.phase`)."""
+
+    #: no component runs: the plan chooses the next one (or the run ends, or a repair)
+    CHOOSING = "choosing"
+    #: a component runs toward its intermediate goal
+    RUNNING = "running"
+    #: inside the complex goal, the running component finishes braking into its own
+    #: goal instead of the robot stopping at speed (``settle_cycles``)
+    SETTLING = "settling"
+    #: a component ended at rest: the robot rests as long as the teacher at a switch
+    #: (``handover_pause``)
+    PAUSED = "paused"
+    #: at the goal, ramping the command to rest (``command_rate_limit``); a run that
+    #: stops at once ends with its done step instead
+    STOPPING = "stopping"
+
+
+# -- rules: each decides one thing from what it is given, and can be tested alone -------
+
+
+class Debounce:
+    """Debounce rule: a running component is replaced only when the plan insists.
+
+    Near a category border the plan's first component can flip every few cycles; the
+    running one goes on until the plan has wanted the same other component for
+    ``cycles`` cycles in a row (thesis: 0, a switch at once).
+
+    Parameters
+    ----------
+    cycles
+        Cycles in a row the plan must want another component (``switch_cycles``).
+    """
+
+    def __init__(self, cycles: int) -> None:
+        self.cycles = int(cycles)
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget what the plan wanted (a switch happened, or none was asked for)."""
+        self._wanted = -1
+        self._insist = 0
+
+    def holds(self, wanted: int) -> bool:
+        """Count one cycle the plan wants ``wanted``: True while the running one goes on."""
+        self._insist = self._insist + 1 if self._wanted == wanted else 1
+        self._wanted = wanted
+        return self._insist < self.cycles
+
+
+def _needed_change(
+    values: Mapping[str, float], goal: float, channel: str, spec: ChannelSpec
+) -> float:
+    """The sign of the change that closes a gap: |angle| must shrink; others move to the goal."""
+    return -1.0 if spec.wraps else -float(np.sign(values[channel] - goal))
+
+
+def preempting_component(
+    goal: Mapping[str, float],
+    values: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+    channels: Sequence[str],
+    effects: FloatArray,
+    goal_channels: Sequence[Collection[str]],
+    planned: Sequence[int],
+    follows: Callable[[int, int], bool],
+    unable: Collection[int] = (),
+    tolerance: float = 1.0,
+) -> int | None:
+    """Pre-emption rule: a component to run first because the plan cannot close a gap.
+
+    At a decision point (nothing running), a goal channel outside its tolerance must be
+    closed by some planned component, judged by the components' learned effects (a
+    substantial share of the best effect); e.g. a start 9 deg off the object whose still
+    window looks aligned gets "approach" planned, but approach does not turn, and in
+    the demonstrations nothing turns after it. Then the component that closes that gap
+    best runs first, unless the demonstrations run it after the plan's first component
+    (a start 3 cm short of the goal and 109 deg off gets "turn" planned; the approach
+    then comes after the turn, as the plan's repair, not before it).
+
+    Parameters
+    ----------
+    goal, values
+        The complex goal and the current (filtered) readings, physical units.
+    specs
+        Each channel's declaration (tolerance, wrap).
+    channels
+        The complex behavior's input channels: the columns of ``effects``.
+    effects
+        ``(components, channels)``: each component's learned effect per cycle.
+    goal_channels
+        Per component, the channels its own goal states.
+    planned
+        The components the plan has still to run, first first.
+    follows
+        ``follows(k, other)``: whether the demonstrations run ``k`` after ``other``.
+    unable
+        Components that cannot start from here.
+    tolerance
+        Scale of the goal's tolerance.
+
+    Returns
+    -------
+    int or None
+        The component to run first; ``None``: the plan covers every gap, or goes first.
+    """
+    for channel in goal:
+        if within_tolerance(values, {channel: goal[channel]}, tolerance, specs):
+            continue
+        j = list(channels).index(channel)
+        gain = _needed_change(values, goal[channel], channel, specs[channel]) * effects[:, j]
+        able = [
+            k
+            for k in np.argsort(-gain, kind="stable").tolist()
+            if gain[k] > 0
+            and gain[k] >= 0.1 * gain.max()
+            and channel in goal_channels[k]
+            and k not in unable
+        ]
+        if able and not any(k in able for k in planned):
+            fix = int(able[0])
+            if planned and follows(fix, planned[0]):
+                # in the demonstrations it comes after the plan's first component
+                # (e.g. approach after turn): the plan runs first, a repair after it
+                continue
+            return fix
+    return None
+
+
+def repair_candidates(
+    goal: Mapping[str, float],
+    values: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+    channels: Sequence[str],
+    effects: FloatArray,
+    goal_channels: Sequence[Collection[str]],
+    unable: Collection[int] = (),
+) -> list[int]:
+    """Repair rule: the components to try, in order, when the plan ends short of the goal.
+
+    For each goal channel outside its tolerance (in the goal's order), the components
+    whose own goal states that channel and whose learned effect closes the gap, the
+    largest effect first; those in ``unable`` are left out. A component can appear once
+    per missed channel (the caller skips one that has failed meanwhile).
+
+    Parameters
+    ----------
+    goal, values, specs, channels, effects, goal_channels, unable
+        As for :func:`preempting_component`.
+    """
+    order: list[int] = []
+    for channel in goal:
+        if within_tolerance(values, {channel: goal[channel]}, specs=specs):
+            continue
+        j = list(channels).index(channel)
+        needed = _needed_change(values, goal[channel], channel, specs[channel])
+        for comp in (int(k) for k in np.argsort(-needed * effects[:, j], kind="stable")):
+            if (
+                channel not in goal_channels[comp]
+                or comp in unable
+                or needed * effects[comp, j] <= 0
+            ):
+                continue
+            order.append(comp)
+    return order
+
+
+def undone(
+    finished: Mapping[int, Mapping[str, float]],
+    values: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+) -> list[int]:
+    """Repair rule: the finished components whose goal no longer holds (e.g. after a push)."""
+    return [
+        comp
+        for comp, sub_goal in finished.items()
+        if not within_tolerance(values, sub_goal, specs=specs)
+    ]
+
+
+def settles_in_goal(
+    child: Any,
+    goal: Mapping[str, float],
+    tolerance: float,
+    specs: Mapping[str, ChannelSpec],
+) -> bool:
+    """Settle rule: whether a running component may finish inside the complex goal.
+
+    ``child`` (a component's controller: ``braked``, ``braking``, ``goal`` and its
+    model's ``default_goal_``) heads for a goal inside the complex goal's tolerance
+    and is braking into it, or heads for the goal its demonstrations stop at (a goal
+    they only pass at speed, e.g. an approach to 0.5 m, is not one to settle in). One
+    braked to rest inside the goal is done.
+    """
+    if child.braked:
+        return False  # a component braked to rest inside the goal is done
+    shared = {c: g for c, g in goal.items() if c in child.goal}
+    if not shared or not within_tolerance(child.goal, shared, tolerance, specs):
+        return False
+    own = child.model.default_goal_
+    return bool(child.braking) or within_tolerance(child.goal, own, specs=specs)
+
+
+def on_the_way(
+    sub_goal: dict[str, float],
+    values: Mapping[str, float],
+    goal: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+) -> dict[str, float]:
+    """Forward-goals rule: ``sub_goal`` with no channel sent back, away from ``goal``.
+
+    An intermediate goal is its exit category's prototype, which is coarse: from
+    0.49 m toward 0.63 m the turn & approach before a retreat is handed 0.39 m, and
+    would approach 10 cm only for the retreat to undo it. A channel the complex goal
+    states (other than a wrapping one, an angle, whose sign is no direction) whose
+    sub-goal lies behind the robot, away from the goal, keeps its current value
+    instead (``sub_goal`` is changed in place and returned).
+    """
+    for channel, target in sub_goal.items():
+        if channel not in goal or specs[channel].wraps:
+            continue
+        now = values[channel]
+        if (target - now) * (goal[channel] - now) < 0.0:
+            sub_goal[channel] = now
+    return sub_goal
+
+
 class ComplexPolicy(GoalTracking, RateLimited):
     """A CBLM's policy: plans over its own observation categories, delegates to components.
 
@@ -35,6 +263,13 @@ class ComplexPolicy(GoalTracking, RateLimited):
     The run ends when the goal category is reached and the readings lie within the
     goal's physical tolerance, or when the plan has nothing left to run and the
     tolerance holds.
+
+    The run state is :attr:`phase` (:class:`Phase`); each change of it is one method
+    (``_start``, ``_carry_on``, ``_settle``, ``_hand_back``, ``_skip``, ``_wait``,
+    ``_reopen``, and the stop in :meth:`step`). The CBLM's runtime additions are rules
+    that can be tested alone: :class:`Debounce`, :func:`preempting_component`,
+    :func:`repair_candidates`, :func:`undone`, :func:`settles_in_goal` and
+    :func:`on_the_way`.
 
     Parameters
     ----------
@@ -69,12 +304,14 @@ class ComplexPolicy(GoalTracking, RateLimited):
         # the CBLM's runtime additions (each off in the thesis preset)
         self._may_repair = bool(model.repair)
         self._may_preempt = bool(model.preempt_uncovered)
-        self._switch_cycles = int(model.switch_cycles)
+        self._debounce = Debounce(int(model.switch_cycles))
         self._alternatives = int(model.start_alternatives)
         self._settle_cycles = int(getattr(model, "settle_cycles", 0))
         self._forward = bool(getattr(model, "forward_goals", False))
         pause = bool(getattr(model, "handover_pause", False))
         self._handover = int(getattr(model, "handover_cycles_", 0)) if pause else 0
+        #: per component, the channels its own goal states (the rules' ``goal_channels``)
+        self._goal_channels = [tuple(c.default_goal_) for c in model.components_]
         # one controller per component, built now (before any motion) and renewed with
         # each intermediate goal: building one takes ~0.5 ms, too long inside a cycle
         self._children: dict[int, Any] = {
@@ -94,10 +331,59 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._limit_motion = False  # the components limit their own commands
         self.reset()
 
-    def _done(self, category: int, novel: bool) -> StepOutput:
-        """The step that ends the run at the goal: the rest command, done."""
-        label = self._label or self.name
-        return StepOutput(self._rest_command, category, novel, self._active, label, False, True)
+    def reset(self) -> None:
+        """Forget the previous run."""
+        self._pipe.reset()
+        self._live.reset()
+        self._phase = Phase.CHOOSING
+        # the component bookkeeping: the last one started, and those whose goal holds
+        self._active = -1
+        self._child: Any = None
+        self._finished: dict[int, dict[str, float]] = {}
+        self._unable: set[int] = set()  # cannot start from the current category
+        self._reachable_from = -1
+        self._handed_back = False  # a component finished, and no cycle has decided since
+        self._committed = False  # the running one closes a gap the plan missed (pre-emption)
+        self._redo = False  # the active component's goal was undone after it finished
+        self._debounce.clear()
+        self._settled = 0  # cycles spent settling (at most settle_cycles a run)
+        self._pause_left = 0  # cycles of the handover pause still to rest
+        self._limit_reset()
+
+    @property
+    def phase(self) -> Phase:
+        """The run state now (see :class:`Phase`)."""
+        return self._phase
+
+    @property
+    def braking(self) -> bool:
+        """Whether the running component is ramping to rest short of its goal.
+
+        A complex behavior brakes through its components; a parent that runs this one
+        as a component lets it finish braking into the parent's goal (``settle_cycles``).
+        """
+        child = self._mid_run()
+        return child is not None and bool(child.braking)
+
+    @property
+    def braked(self) -> bool:
+        """Whether the running component has braked to rest (it waits for its goal)."""
+        child = self._mid_run()
+        return child is not None and bool(child.braked)
+
+    def _mid_run(self) -> Any:
+        """The controller of the component whose run has not finished (None: none).
+
+        A stop at the goal does not finish it: braking still reads the component whose
+        run the stop cut short.
+        """
+        if self._child is None or self._active in self._finished:
+            return None
+        return self._child
+
+    def _running(self) -> Any:
+        """The controller of the component running now (None: none runs)."""
+        return self._child if self._phase in _COMPONENT_PHASES else None
 
     def bind(self, channels: Sequence[str]) -> None:
         """Fit every component's policy to a robot's ``channels`` (see SimplePolicy.bind)."""
@@ -108,45 +394,269 @@ class ComplexPolicy(GoalTracking, RateLimited):
             names += [c for c in child.channels if c not in names]
         self.channels = ordered_channels(names)
 
-    def reset(self) -> None:
-        """Forget the previous run."""
-        self._pipe.reset()
-        self._live.reset()
-        self._active = -1
-        self._child: Any = None
-        self._finished: dict[int, dict[str, float]] = {}
-        self._reachable_from = -1
-        self._unable: set[int] = set()
-        self._unreachable = False  # the last component step raised UnreachableGoalError
-        self._handed_back = False
-        self._insist, self._wanted = 0, -1
-        self._committed = False
-        self._settling = 0
-        self._pause = 0
-        self._redo = False  # the active component's goal was undone after it finished
-        self._limit_reset()
+    # -- one control cycle ---------------------------------------------------------------
 
-    @property
-    def braking(self) -> bool:
-        """Whether the running component is ramping to rest short of its goal.
+    def step(self, reading: Mapping[str, float]) -> StepOutput:
+        """Decide the command for one reading ``{channel: value}`` (physical units).
 
-        A complex behavior brakes through its components; a parent that runs this one
-        as a component lets it finish braking into the parent's goal (``settle_cycles``).
+        With the model's ``command_rate_limit`` a new component continues from the
+        running command (each component limits its own change per cycle), and the
+        complex behavior stops softly when it is slow at its goal.
         """
-        child = self._running()
-        return child is not None and bool(child.braking)
+        if self._phase is Phase.STOPPING:  # ramping down at the goal
+            assert self._stopping is not None
+            return self._limited(self._stopping)
+        out = self._limited(self._decide(reading))
+        if self._stopping is not None:  # done, and slow enough to ramp down
+            self._phase = Phase.STOPPING
+        return out
 
-    @property
-    def braked(self) -> bool:
-        """Whether the running component has braked to rest (it waits for its goal)."""
-        child = self._running()
-        return child is not None and bool(child.braked)
+    def _decide(self, reading: Mapping[str, float]) -> StepOutput:
+        x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
+        category, novel, _ = self._live.update(x)
+        if category != self._reachable_from:
+            category = self._plannable(category)
+            self._unable.clear()  # a component unable to reach the goal may be able now
+        values = self._values(reading, x)
+        at_goal = within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
+        if self._phase is Phase.PAUSED and not at_goal:
+            return self._wait(category, novel)
+        if at_goal and self._settles_in_goal():
+            return self._settle(reading, category, novel)
+        braked = self._child is not None and self._child.braked
+        if at_goal and (category in self._stop_set or self._handed_back or braked):
+            # the goal category with the goal's tolerance (thesis + DESIGN §5), or a
+            # component has just finished with the complex goal's tolerance holding
+            return self._done(category, novel)
+        self._handed_back = False
+        # a finished component whose goal no longer holds (e.g. after a push) runs again
+        for comp in undone(self._finished, values, self.channel_specs):
+            self._reopen(comp)
+        segments = self._open_segments(category)
+        if not segments:
+            return self._plan_exhausted(values, reading, category, novel, at_goal)
+        return self._follow_plan(segments, values, reading, category, novel)
 
-    def _running(self) -> Any:
-        """The controller of the component running now (None: none, or it has finished)."""
-        if self._child is None or self._active in self._finished:
+    def _open_segments(self, category: int) -> list[Any]:
+        """The plan's segments whose component has not finished (none: no plan, mid-run)."""
+        try:
+            plan = self.model.hmm_.plan(category, self.goal_category)
+        except UnreachableGoalError:
+            if self._child is None:
+                raise
+            return []
+        return [s for s in plan.segments if s.state not in self._finished]
+
+    def _plan_exhausted(
+        self,
+        values: Mapping[str, float],
+        reading: Mapping[str, float],
+        category: int,
+        novel: bool,
+        at_goal: bool,
+    ) -> StepOutput:
+        """Nothing left in the plan: the running component goes on, or the run ends."""
+        if self._running() is not None:
+            return self._carry_on(reading, category, novel)
+        if at_goal:  # nothing left to run and the goal holds
+            return self._done(category, novel)
+        if not self._may_repair:  # thesis: stand still until the step limit
+            return self._idle(category, novel)
+        # The plan is exhausted short of the goal (e.g. an approach drifted off the
+        # bearing): run the component whose own goal covers the channel that misses its
+        # tolerance, toward the complex goal on its channels.
+        return self._repair(values, reading, category, novel)
+
+    def _follow_plan(
+        self,
+        segments: list[Any],
+        values: Mapping[str, float],
+        reading: Mapping[str, float],
+        category: int,
+        novel: bool,
+    ) -> StepOutput:
+        """Run the plan's first open segment's component (pre-emption and debounce first)."""
+        segment = segments[0]
+        running = self._running() is not None
+        if running and self._committed:
+            # a component run to close a gap the plan missed finishes its job first
+            return self._carry_on(reading, category, novel)
+        if not running and self._may_preempt:
+            out = self._preempt(values, [s.state for s in segments], reading, category, novel)
+            if out is not None:
+                return out
+        if running and segment.state != self._active and self._debounce.holds(segment.state):
+            return self._carry_on(reading, category, novel)
+        self._debounce.clear()
+        self._committed = False
+        if segment.state == self._active and not self._redo:  # carry on (an intermediate
+            return self._carry_on(reading, category, novel)  # goal: a new one)
+        renew, self._redo = self._redo, False
+        sub_goal = self.model.component_goal(
+            segment.state,
+            segment.exit_observation,
+            self.goal,
+            final=segment.exit_observation in self._goal_set,
+        )
+        return self._start(
+            segment.state, self._on_the_way(sub_goal, values), reading, category, novel, renew
+        )
+
+    def _preempt(
+        self,
+        values: Mapping[str, float],
+        planned: list[int],
+        reading: Mapping[str, float],
+        category: int,
+        novel: bool,
+    ) -> StepOutput | None:
+        """Start a component that closes a gap the plan misses (None: none, or it cannot)."""
+        fix = self._uncovered(values, planned)
+        if fix is None:
             return None
-        return self._child
+        sub_goal = {
+            c: self.goal.get(c, v) for c, v in self.model.components_[fix].default_goal_.items()
+        }
+        before = self._child, self._active, self._phase, self._finished.get(fix)
+        out, started = self._start_checked(fix, sub_goal, reading, category, novel, renew=True)
+        if started:
+            self._committed = True
+            return out
+        # it cannot start from here (e.g. a nested turn & approach asked to back away):
+        # the plan goes on as if it had not been tried, or the robot would try it again
+        # every cycle and never move
+        self._unable.add(fix)
+        self._child, self._active, self._phase, fix_goal = before
+        if fix_goal is None:
+            del self._finished[fix]
+        else:
+            self._finished[fix] = fix_goal
+        return None
+
+    # -- transitions -----------------------------------------------------------------------
+
+    def _wait(self, category: int, novel: bool) -> StepOutput:
+        """PAUSED: rest one cycle of the handover pause (then CHOOSING)."""
+        self._pause_left -= 1
+        if self._pause_left <= 0:
+            self._phase = Phase.CHOOSING
+        label = self._label or self.name
+        return StepOutput(self._rest_command, category, novel, self._active, label, False, False)
+
+    def _settle(self, reading: Mapping[str, float], category: int, novel: bool) -> StepOutput:
+        """SETTLING: the running component heads for a goal inside the tolerance.
+
+        It finishes (at rest, braking into it) rather than the robot stopping at speed.
+        """
+        self._settled += 1
+        self._phase = Phase.SETTLING
+        return self._run_child(reading, category, novel, changed=False)
+
+    def _carry_on(self, reading: Mapping[str, float], category: int, novel: bool) -> StepOutput:
+        """RUNNING: the current component goes on for one more cycle."""
+        self._phase = Phase.RUNNING
+        return self._run_child(reading, category, novel, changed=False)
+
+    def _reopen(self, comp: int) -> None:
+        """A finished component's goal is undone: it may run again.
+
+        The last one to run has stopped its controller: it runs again (RUNNING), and
+        starts afresh when the plan next chooses it.
+        """
+        del self._finished[comp]
+        if comp == self._active:
+            self._redo = True
+            self._phase = Phase.RUNNING
+
+    def _start(
+        self,
+        comp: int,
+        sub_goal: dict[str, float],
+        reading: Mapping[str, float],
+        category: int,
+        novel: bool,
+        renew: bool = False,
+        tolerance: float = 1.0,
+    ) -> StepOutput:
+        """RUNNING: run component ``comp`` toward ``sub_goal`` (a fresh controller if new)."""
+        return self._start_checked(comp, sub_goal, reading, category, novel, renew, tolerance)[0]
+
+    def _start_checked(
+        self,
+        comp: int,
+        sub_goal: dict[str, float],
+        reading: Mapping[str, float],
+        category: int,
+        novel: bool,
+        renew: bool = False,
+        tolerance: float = 1.0,
+    ) -> tuple[StepOutput, bool]:
+        """:meth:`_start`, and whether the component could start (no UnreachableGoalError)."""
+        changed = comp != self._active or renew
+        if changed:
+            child = self._children[comp]
+            child.renew(sub_goal, tolerance)  # as a new controller, without building one
+            self._child = child
+            self._child.reset()
+            self._child.carry(self._last)
+            self._active = comp
+        # a component started while its goal still counts as reached runs this cycle only
+        self._phase = Phase.CHOOSING if comp in self._finished else Phase.RUNNING
+        return self._run_child_checked(reading, category, novel, changed)
+
+    def _hand_back(self, at_rest: bool) -> None:
+        """The running component reached its goal: PAUSED (it ended at rest) or CHOOSING."""
+        self._finished[self._active] = dict(self._child.goal)
+        if at_rest:  # the teacher's pause at a switch
+            self._pause_left = self._handover
+        self._phase = Phase.PAUSED if self._pause_left > 0 else Phase.CHOOSING
+        self._handed_back = True
+        self._committed = False
+
+    def _skip(self) -> FloatArray:
+        """The running component cannot reach its goal from here: CHOOSING, and the rest command.
+
+        It counts as finished (the plan goes on without it) and, should it run again, goes
+        on from this command.
+        """
+        self._finished[self._active] = dict(self._child.goal)
+        self._phase = Phase.CHOOSING
+        rest = self._rest()
+        self._child.carry(rest)
+        return rest
+
+    # -- outputs ---------------------------------------------------------------------------
+
+    def _done(self, category: int, novel: bool) -> StepOutput:
+        """The step that ends the run at the goal: the rest command, done."""
+        label = self._label or self.name
+        return StepOutput(self._rest_command, category, novel, self._active, label, False, True)
+
+    def _idle(self, category: int, novel: bool) -> StepOutput:
+        """A cycle without a component: toward rest (see :meth:`_rest`)."""
+        return StepOutput(self._rest(), category, novel, self._active, self.name, False, False)
+
+    def _run_child(
+        self, reading: Mapping[str, float], category: int, novel: bool, changed: bool
+    ) -> StepOutput:
+        return self._run_child_checked(reading, category, novel, changed)[0]
+
+    def _run_child_checked(
+        self, reading: Mapping[str, float], category: int, novel: bool, changed: bool
+    ) -> tuple[StepOutput, bool]:
+        """One cycle of the current component, and whether it could run (it may raise)."""
+        try:
+            out = self._child.step(reading)
+        except UnreachableGoalError:
+            # the component cannot reach its intermediate goal from here: skip it
+            rest = self._skip()
+            return StepOutput(rest, category, novel, self._active, self.name, changed, False), False
+        if out.done:
+            self._hand_back(self._at_rest_command(out.command))
+        label = out.component or self.model.names_[self._active]
+        return StepOutput(out.command, category, novel, self._active, label, changed, False), True
+
+    # -- helpers ---------------------------------------------------------------------------
 
     def _plannable(self, category: int) -> int:
         """``category``, or the next-best match of the current window a plan can start from.
@@ -179,139 +689,13 @@ class ComplexPolicy(GoalTracking, RateLimited):
         values.update(zip(self._channels, filtered.tolist(), strict=True))
         return values
 
-    def step(self, reading: Mapping[str, float]) -> StepOutput:
-        """Decide the command for one reading ``{channel: value}`` (physical units).
-
-        With the model's ``command_rate_limit`` a new component continues from the
-        running command (each component limits its own change per cycle), and the
-        complex behavior stops softly when it is slow at its goal.
-        """
-        if self._stopping is not None:  # ramping down at the goal
-            return self._limited(self._stopping)
-        return self._limited(self._decide(reading))
-
-    def _decide(self, reading: Mapping[str, float]) -> StepOutput:
-        x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
-        category, novel, _ = self._live.update(x)
-        if category != self._reachable_from:
-            category = self._plannable(category)
-            self._unable.clear()  # a component unable to reach the goal may be able now
-        values = self._values(reading, x)
-        at_goal = within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
-        if self._pause > 0 and not at_goal:
-            # a component ended at rest: wait as long as the teacher rests at a switch
-            self._pause -= 1
-            label = self._label or self.name
-            return StepOutput(
-                self._rest_command, category, novel, self._active, label, False, False
-            )
-        if at_goal and self._settles_in_goal():
-            # the running component heads for a goal inside the tolerance: it finishes
-            # (at rest, braking into it) rather than the robot stopping at speed
-            self._settling += 1
-            return self._run_child(reading, category, novel, changed=False)
-        braked = self._child is not None and self._child.braked
-        if at_goal and (category in self._stop_set or self._handed_back or braked):
-            # the goal category with the goal's tolerance (thesis + DESIGN §5), or a
-            # component has just finished with the complex goal's tolerance holding
-            return self._done(category, novel)
-        self._handed_back = False
-        # A finished component whose goal no longer holds (e.g. after a push) runs again.
-        for comp, sub_goal in list(self._finished.items()):
-            if not within_tolerance(values, sub_goal, specs=self.channel_specs):
-                del self._finished[comp]
-                # the last one to run has stopped its controller: it starts afresh
-                self._redo = self._redo or comp == self._active
-        plan = None
-        try:
-            plan = self.model.hmm_.plan(category, self.goal_category)
-            segments = [s for s in plan.segments if s.state not in self._finished]
-        except UnreachableGoalError:
-            if self._child is None:
-                raise
-            segments = []
-        if not segments:
-            if self._running() is None:
-                if at_goal:  # nothing left to run and the goal holds
-                    return self._done(category, novel)
-                if not self._may_repair:  # thesis: stand still until the step limit
-                    return StepOutput(
-                        self._rest(), category, novel, self._active, self.name, False, False
-                    )
-                # The plan is exhausted short of the goal (e.g. an approach drifted off
-                # the bearing): run the component whose own goal covers the channel that
-                # misses its tolerance, toward the complex goal on its channels.
-                return self._repair(values, reading, category, novel)
-            return self._run_child(reading, category, novel, changed=False)
-        segment = segments[0]
-        running = self._running() is not None
-        if running and self._committed:
-            # a component run to close a gap the plan missed finishes its job first
-            return self._run_child(reading, category, novel, changed=False)
-        if not running and self._may_preempt:
-            fix = self._uncovered(values, [s.state for s in segments])
-            if fix is not None:
-                sub_goal = {
-                    c: self.goal.get(c, v)
-                    for c, v in self.model.components_[fix].default_goal_.items()
-                }
-                child, active, fix_goal = self._child, self._active, self._finished.get(fix)
-                out = self._delegate(fix, sub_goal, reading, category, novel, renew=True)
-                if not self._unreachable:
-                    self._committed = True
-                    return out
-                # it cannot start from here (e.g. a nested turn & approach asked to back
-                # away): the plan goes on as if it had not been tried, or the robot would
-                # try it again every cycle and never move
-                self._unable.add(fix)
-                self._child, self._active = child, active
-                if fix_goal is None:
-                    del self._finished[fix]
-                else:
-                    self._finished[fix] = fix_goal
-        if running and segment.state != self._active:
-            # Debounce: near a category border the plan can flip every few cycles; a
-            # running component is replaced only when the plan insists for a while.
-            self._insist = self._insist + 1 if self._wanted == segment.state else 1
-            self._wanted = segment.state
-            if self._insist < self._switch_cycles:
-                return self._run_child(reading, category, novel, changed=False)
-        self._insist, self._wanted = 0, -1
-        self._committed = False
-        if segment.state == self._active and not self._redo:  # carry on (an intermediate
-            return self._run_child(reading, category, novel, changed=False)  # goal: a new one)
-        renew, self._redo = self._redo, False
-        sub_goal = self.model.component_goal(
-            segment.state,
-            segment.exit_observation,
-            self.goal,
-            final=segment.exit_observation in self._goal_set,
-        )
-        return self._delegate(
-            segment.state, self._on_the_way(sub_goal, values), reading, category, novel, renew
-        )
-
     def _on_the_way(
         self, sub_goal: dict[str, float], values: Mapping[str, float]
     ) -> dict[str, float]:
-        """``sub_goal`` with no channel sent back, away from the complex goal (``forward_goals``).
-
-        An intermediate goal is its exit category's prototype, which is coarse: from
-        0.49 m toward 0.63 m the turn & approach before a retreat is handed 0.39 m, and
-        would approach 10 cm only for the retreat to undo it. A channel the complex goal
-        states (other than a wrapping one, an angle, whose sign is no direction) whose
-        sub-goal lies behind the robot, away from the goal, keeps its current value
-        instead.
-        """
+        """``sub_goal``; with ``forward_goals``, no channel sent back (:func:`on_the_way`)."""
         if not self._forward:  # thesis: the prototype as it is
             return sub_goal
-        for channel, target in sub_goal.items():
-            if channel not in self.goal or self.channel_specs[channel].wraps:
-                continue
-            now = values[channel]
-            if (target - now) * (self.goal[channel] - now) < 0.0:
-                sub_goal[channel] = now
-        return sub_goal
+        return on_the_way(sub_goal, values, self.goal, self.channel_specs)
 
     def _rest(self) -> FloatArray:
         """The command when no component runs this cycle: toward rest at the rate limit.
@@ -325,60 +709,27 @@ class ComplexPolicy(GoalTracking, RateLimited):
     def _settles_in_goal(self) -> bool:
         """Whether the running component may finish inside the goal (``settle_cycles``)."""
         child = self._running()
-        if child is None or child.braked:
-            return False  # a component braked to rest inside the goal is done
-        if self._settling >= self._settle_cycles:
+        if child is None or self._settled >= self._settle_cycles:
             return False
-        shared = {c: g for c, g in self.goal.items() if c in child.goal}
-        if not shared or not within_tolerance(
-            child.goal, shared, self._tolerance, self.channel_specs
-        ):
-            return False
-        # braking into its goal, or heading for the goal its demonstrations stop at (a
-        # goal they only pass at speed, e.g. an approach to 0.5 m, is not one to settle in)
-        own = child.model.default_goal_
-        return bool(child.braking) or within_tolerance(child.goal, own, specs=self.channel_specs)
+        return settles_in_goal(child, self.goal, self._tolerance, self.channel_specs)
 
     def _uncovered(self, values: Mapping[str, float], planned: list[int]) -> int | None:
-        """A component to run first because the plan cannot close a gap of the goal.
+        """A component to run first, for a gap the plan cannot close (see the rule).
 
-        At a decision point (nothing running), a goal channel outside its tolerance
-        must be closed by some planned component, judged by the components' learned
-        effects (a substantial share of the best effect); e.g. a start 9 deg off the
-        object whose still window looks aligned gets "approach" planned, but approach
-        does not turn, and in the demonstrations nothing turns after it. Then the
-        component that closes that gap best runs first, unless the demonstrations run it
-        after the plan's first component (a start 3 cm short of the goal and 109 deg off
-        gets "turn" planned; the approach then comes after the turn, as the plan's
-        repair, not before it). ``None``: the plan covers it, or goes first.
+        :func:`preempting_component` with this policy's goal, model and state.
         """
-        effects = self.model.effects_
-        for channel in self.goal:
-            if within_tolerance(
-                values, {channel: self.goal[channel]}, self._tolerance, self.channel_specs
-            ):
-                continue
-            j = self._channels.index(channel)
-            error = values[channel] - self.goal[channel]
-            # the change that closes the gap: |angle| must shrink; others move to the goal
-            needed = -1.0 if self.channel_specs[channel].wraps else -np.sign(error)
-            gain = needed * effects[:, j]
-            able = [
-                k
-                for k in np.argsort(-gain, kind="stable").tolist()
-                if gain[k] > 0
-                and gain[k] >= 0.1 * gain.max()
-                and channel in self.model.components_[k].default_goal_
-                and k not in self._unable
-            ]
-            if able and not any(k in able for k in planned):
-                fix = int(able[0])
-                if planned and self._follows(fix, planned[0]):
-                    # in the demonstrations it comes after the plan's first component
-                    # (e.g. approach after turn): the plan runs first, a repair after it
-                    continue
-                return fix
-        return None
+        return preempting_component(
+            self.goal,
+            values,
+            self.channel_specs,
+            self._channels,
+            self.model.effects_,
+            self._goal_channels,
+            planned,
+            self._follows,
+            unable=self._unable,
+            tolerance=self._tolerance,
+        )
 
     def _follows(self, component: int, other: int) -> bool:
         """Whether the demonstrations switch ``other`` -> ``component`` more than back."""
@@ -390,78 +741,32 @@ class ComplexPolicy(GoalTracking, RateLimited):
     ) -> StepOutput:
         """Run a component whose goal channels cover one the complex goal misses.
 
-        Components are tried in order; one that cannot reach the goal from here (its
-        own plan is unreachable, e.g. an approach asked to back away) is skipped.
+        Components are tried in the order of :func:`repair_candidates`; one that cannot
+        reach the goal from here (its own plan is unreachable, e.g. an approach asked to
+        back away) is skipped.
         """
-        missed = [
-            c
-            for c in self.goal
-            if not within_tolerance(values, {c: self.goal[c]}, specs=self.channel_specs)
-        ]
-        effects = self.model.effects_
-        for channel in missed:
-            j = self._channels.index(channel)
-            error = values[channel] - self.goal[channel]
-            # the change that closes the gap: |angle| must shrink; others move to the goal
-            needed = -1.0 if self.channel_specs[channel].wraps else -np.sign(error)
-            order = np.argsort(-needed * effects[:, j], kind="stable")
-            for comp in (int(k) for k in order):
-                component = self.model.components_[comp]
-                if (
-                    channel not in component.default_goal_
-                    or comp in self._unable
-                    or needed * effects[comp, j] <= 0
-                ):
-                    continue
-                sub_goal = {c: self.goal.get(c, v) for c, v in component.default_goal_.items()}
-                self._finished.pop(comp, None)
-                # a repair aims well inside the tolerance, or the next drift undoes it
-                out = self._delegate(
-                    comp, sub_goal, reading, category, novel, renew=True, tolerance=0.5
-                )
-                if comp not in self._finished:  # it runs: no UnreachableGoalError
-                    return out
-                self._unable.add(comp)
-        return StepOutput(self._rest(), category, novel, self._active, self.name, False, False)
+        candidates = repair_candidates(
+            self.goal,
+            values,
+            self.channel_specs,
+            self._channels,
+            self.model.effects_,
+            self._goal_channels,
+            unable=self._unable,
+        )
+        for comp in candidates:
+            if comp in self._unable:  # it failed for an earlier channel
+                continue
+            component = self.model.components_[comp]
+            sub_goal = {c: self.goal.get(c, v) for c, v in component.default_goal_.items()}
+            self._finished.pop(comp, None)
+            # a repair aims well inside the tolerance, or the next drift undoes it
+            out = self._start(comp, sub_goal, reading, category, novel, renew=True, tolerance=0.5)
+            if comp not in self._finished:  # it runs (it neither failed nor finished at once)
+                return out
+            self._unable.add(comp)
+        return self._idle(category, novel)
 
-    def _delegate(
-        self,
-        comp: int,
-        sub_goal: dict[str, float],
-        reading: Mapping[str, float],
-        category: int,
-        novel: bool,
-        renew: bool = False,
-        tolerance: float = 1.0,
-    ) -> StepOutput:
-        changed = comp != self._active or renew
-        if changed:
-            child = self._children[comp]
-            child._renew(sub_goal, tolerance)  # as a new controller, without building one
-            self._child = child
-            self._child.reset()
-            self._child.carry(self._last)
-            self._active = comp
-        return self._run_child(reading, category, novel, changed)
 
-    def _run_child(
-        self, reading: Mapping[str, float], category: int, novel: bool, changed: bool
-    ) -> StepOutput:
-        self._unreachable = False
-        try:
-            out = self._child.step(reading)
-        except UnreachableGoalError:
-            # the component cannot reach its intermediate goal from here: skip it
-            self._unreachable = True
-            self._finished[self._active] = dict(self._child.goal)
-            rest = self._rest()
-            self._child.carry(rest)  # should it run again, it goes on from this command
-            return StepOutput(rest, category, novel, self._active, self.name, changed, False)
-        if out.done:
-            if self._at_rest_command(out.command):  # it ended at rest: the teacher's pause
-                self._pause = self._handover
-            self._finished[self._active] = dict(self._child.goal)
-            self._handed_back = True
-            self._committed = False
-        label = out.component or self.model.names_[self._active]
-        return StepOutput(out.command, category, novel, self._active, label, changed, False)
+#: The phases in which a component's controller runs.
+_COMPONENT_PHASES = frozenset({Phase.RUNNING, Phase.SETTLING})

@@ -79,7 +79,25 @@ class GoalTracking:
         self._stop_set = frozenset({self.goal_category})
         self._reachable_from = -1
 
-    def _renew(self, goal: Mapping[str, float] | None, tolerance: float) -> None:
+    @property
+    def goal_candidates(self) -> NDArray[np.int64]:
+        """The categories matching the goal, best match first (see ``model.goal_categories``)."""
+        return self._goal_candidates
+
+    def planned_from(self, category: int) -> None:
+        """Record that the goal category has been checked against ``category`` (retarget)."""
+        self._reachable_from = category
+
+    def aim_at(self, candidate: int) -> None:
+        """Aim at the goal candidate ``candidate`` (retarget).
+
+        From then on the run stops in any category describing the goal place (within
+        the physical tolerance), not only in the best-matching one.
+        """
+        self.goal_category = int(candidate)
+        self._stop_set = self._goal_set
+
+    def renew(self, goal: Mapping[str, float] | None, tolerance: float) -> None:
         """Aim at a new goal with the state a new controller would have after ``reset()``.
 
         A complex controller keeps one controller per component and renews it instead of
@@ -504,30 +522,28 @@ def retarget(
     (``may_raise``) and otherwise keeps its goal (the caller carries on with what it
     was doing until a plan exists again).
     """
-    controller._reachable_from = category
+    controller.planned_from(category)
     if most_likely:
         # among the goal candidates, the one the most likely observation path leads to
         # (the branch the robot is on), the best match first among equals; path
         # probabilities come from the cached goal trees, and no plan is built
         ranked = sorted(
             (-lp, order, int(candidate))
-            for order, candidate in enumerate(controller._goal_candidates.tolist())
+            for order, candidate in enumerate(controller.goal_candidates.tolist())
             if (lp := hmm.path_log_prob(category, candidate)) > -np.inf
         )
         best = next((c for _, _, c in ranked if hmm.can_plan(category, c)), -1)
         if best >= 0:
             if best != controller.goal_category:
-                controller.goal_category = best
-                controller._stop_set = controller._goal_set
+                controller.aim_at(best)
             return
     if hmm.can_plan(category, controller.goal_category):
         return
-    for candidate in controller._goal_candidates:
+    for candidate in controller.goal_candidates:
         if not hmm.can_plan(category, int(candidate)):
             continue
-        controller.goal_category = int(candidate)
         # an intermediate goal: any category describing the goal place ends the run
-        controller._stop_set = controller._goal_set
+        controller.aim_at(int(candidate))
         return
     if may_raise:
         raise UnreachableGoalError(
