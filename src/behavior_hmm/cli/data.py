@@ -135,8 +135,9 @@ def collect(
     behavior: Annotated[
         str,
         typer.Argument(
-            help="turn, approach, retreat, turn-approach or position; with --teacher, any "
-            "name for your behavior"
+            help="turn, approach, retreat, turn-approach, position, or on "
+            "behavior_hmm/KheperaGripper-v0 grasp and turn-approach-grasp; with --teacher, "
+            "any name for your behavior"
         ),
     ],
     out: ParquetOut,
@@ -215,7 +216,9 @@ def collect(
         scaled_starts,
     )
 
-    behavior_spec(behavior)  # an unknown behavior is refused first
+    spec = behavior_spec(behavior)  # an unknown behavior is refused first
+    if env is None and spec.env is not None:  # grasp: our Khepera with a gripper
+        env = spec.env
     check_sim(sim)
     check_noise(noise)
     if noise > max_noise():
@@ -226,14 +229,14 @@ def collect(
     if seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {seed}")
     if corrections is None:
-        corrections = behavior_spec(behavior).corrections if starts is None else 0
+        corrections = spec.corrections if starts is None else 0
     if corrections < 0:
         raise ConfigError(f"--corrections must be >= 0, got {corrections}")
     if correction_noise is not None and not 0.0 < correction_noise <= 0.5:
         raise ConfigError(f"--correction-noise must lie in (0, 0.5], got {correction_noise:g}")
     check_outputs({"--starts": starts}, {"-o": out})
     robot, robot_name = open_env(sim, env, env_kwargs) if env is not None else (None, None)
-    far = math.inf if robot is not None else None
+    far = math.inf if robot is not None and robot_name != spec.env else None
     if starts is not None:
         chosen = read_starts(starts) if far is None else read_starts(starts, far)
     else:

@@ -201,9 +201,65 @@ _SPECS: tuple[ChannelSpec, ...] = (
     ),
 )
 
+#: Arm angle (deg) of our gripper robot with the gripper up, and down at the floor.
+ARM_UP_DEG: Final[float] = 80.0
+ARM_DOWN_DEG: Final[float] = 0.0
+#: Finger opening (m) of our gripper robot, open and closed (the Webots Khepera gripper's).
+FINGERS_OPEN_M: Final[float] = 0.03
+FINGERS_CLOSED_M: Final[float] = 0.005
+
+# The channels of our Khepera with a gripper (behavior_hmm/KheperaGripper-v0) beside the
+# four of the data contract: known to every dataset and model, required by none.
+_GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
+    ChannelSpec(
+        "arm",
+        "deg",
+        (ARM_DOWN_DEG, ARM_UP_DEG),
+        tolerance=3.0,
+        bounds=(-360.0, 360.0),
+        units={"rad": 180.0 / math.pi},
+        label="arm angle (0 down)",
+    ),
+    ChannelSpec(
+        "fingers",
+        "m",
+        (0.0, 0.035),
+        tolerance=0.002,
+        bounds=(-0.5, 0.5),
+        units={"mm": 1e-3, "cm": 1e-2},
+        label="finger opening",
+    ),
+    ChannelSpec(
+        "object_present",
+        "1",
+        (0.0, 1.0),
+        tolerance=0.5,
+        bounds=(-1.0, 2.0),
+        label="object between the fingers",
+    ),
+    ChannelSpec(
+        "arm_speed",
+        "deg/s",
+        (-90.0, 90.0),
+        kind="command",
+        bounds=(-1000.0, 1000.0),
+        units={"rad/s": 180.0 / math.pi},
+        label="arm speed",
+    ),
+    ChannelSpec(
+        "finger_speed",
+        "m/s",
+        (-0.03, 0.03),
+        kind="command",
+        bounds=(-1.0, 1.0),
+        units={"mm/s": 1e-3},
+        label="finger speed",
+    ),
+)
+
 #: Every known channel by name: the four sensors and two wheel commands of the data
-#: contract, plus any registered with :func:`register_channel`.
-CHANNELS: dict[str, ChannelSpec] = {spec.name: spec for spec in _SPECS}
+#: contract, our gripper robot's, plus any registered with :func:`register_channel`.
+CHANNELS: dict[str, ChannelSpec] = {spec.name: spec for spec in _SPECS + _GRIPPER_SPECS}
 
 #: The data contract's sensor channels in their canonical order (our simulator's order).
 SENSOR_CHANNELS: Final[tuple[str, ...]] = tuple(s.name for s in _SPECS if s.kind == "sensor")

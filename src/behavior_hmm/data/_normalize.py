@@ -149,7 +149,8 @@ class CommandScaler(Estimator):
 
     One scale for channels that share a unit (DESIGN §6: both wheels by the largest
     absolute wheel command, so the demonstrated commands fill [−1, 1]); a channel in
-    another unit (a gripper's opening) gets its own.
+    another unit (a gripper's opening) gets its own; a unit whose commands are all zero
+    in the training data (a grasp's wheels) gets scale 1.
 
     Parameters
     ----------
@@ -181,9 +182,12 @@ class CommandScaler(Estimator):
             raise DatasetError(f"{len(units)} command units for {u.shape[1]} command columns")
         peak = np.max(np.abs(u), axis=0)
         scales = np.array([max(peak[[j for j, v in enumerate(units) if v == w]]) for w in units])
-        if np.any(scales == 0.0):
+        if np.all(scales == 0.0) or (np.any(scales == 0.0) and len(set(units)) == 1):
             zero = units[int(np.argmax(scales == 0.0))] or "the"
             raise DatasetError(f"all {zero} commands are zero; there is no scale to learn")
+        # a command the behavior never uses (a grasp's wheels, a turn's gripper) is held at
+        # rest: any scale maps its zeros to zeros, and 1 keeps its outputs in its own unit
+        scales = np.where(scales == 0.0, 1.0, scales)
         self.scale_ = float(scales[0]) if len(set(units)) > 1 else float(np.max(peak))
         self.scales_ = scales
         return self

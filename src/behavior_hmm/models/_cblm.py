@@ -261,7 +261,15 @@ class CBLM(LearnedBehavior):
             dataset.commands, states, lengths, self.command_scale_
         )
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
-        self.default_goal_ = {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
+        # the behavior's declared goal (the dataset's ``goal``, from its spec: grasp's arm
+        # up and object held) on the inputs; without one, the data contract's angle and
+        # distance 0 among them
+        declared = {
+            str(c): float(v)
+            for c, v in (dataset.metadata.get("goal") or {}).items()
+            if c in inputs and self.channel_spec(str(c)).tolerance is not None
+        }
+        self.default_goal_ = declared or {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
         if not self.default_goal_:
             self.default_goal_ = {inputs[0]: self.rest_values_[inputs[0]]}
         self.max_steps_ = int(
@@ -308,8 +316,8 @@ class CBLM(LearnedBehavior):
           so a component's mean effect is kept as the fit learned it, even when the new
           demonstrations run that component too.
         * ``rest_values_`` (the median of the old demonstrations' final readings, which
-          are not stored) and ``default_goal_`` (from the inputs alone: angle 0,
-          distance 0).
+          are not stored) and ``default_goal_`` (the fitted demonstrations' declared
+          goal).
 
         What moves:
 

@@ -3,7 +3,9 @@
 Two backends share one interface (:class:`KheperaEnv`): ``"mujoco"`` (the MJCF model in
 ``assets/khepera.xml``, contact physics) and ``"kinematic"`` (a fast unicycle with the
 same motor lag and wheel mismatch).  Importing this package registers the gymnasium ids
-``behavior_hmm/Khepera-v0`` (MuJoCo) and ``behavior_hmm/KheperaKinematic-v0``.
+``behavior_hmm/Khepera-v0`` (MuJoCo) and ``behavior_hmm/KheperaKinematic-v0``; the
+Khepera with a gripper (:class:`KheperaGripperEnv`, ``assets/khepera_gripper.xml``) is
+``behavior_hmm/KheperaGripper-v0``.
 
 Examples
 --------
@@ -31,6 +33,7 @@ from behavior_hmm.sim._env import (
     make_env,
     wrap_degrees,
 )
+from behavior_hmm.sim._gripper import GRIPPER_ENV_ID, KheperaGripperEnv
 from behavior_hmm.sim._husky import HuskyEnv, make_husky
 from behavior_hmm.sim._mujoco import MODEL_XML
 from behavior_hmm.sim._params import RobotParams
@@ -42,6 +45,7 @@ __all__ = [
     "CONTROL_PERIOD",
     "DEFAULT_START",
     "ENV_ID",
+    "GRIPPER_ENV_ID",
     "KINEMATIC_ENV_ID",
     "MODEL_XML",
     "POINT_MASS_ENV_ID",
@@ -49,6 +53,7 @@ __all__ = [
     "ChannelDict",
     "HuskyEnv",
     "KheperaEnv",
+    "KheperaGripperEnv",
     "PointMassEnv",
     "RobotParams",
     "make_contract_env",

@@ -57,6 +57,15 @@ def build_model(params: RobotParams) -> mujoco.MjModel:
     is ``kv * 2 * max_wheel_speed``: the motor is never saturated inside the command range.
     """
     model = load_spec(params).compile()
+    set_wheel_motors(model, params)
+    return model
+
+
+def set_wheel_motors(model: mujoco.MjModel, params: RobotParams) -> None:
+    """Set the gains and force ranges of actuators 0 and 1 (left, right wheel) in place.
+
+    See :func:`build_model`; the gripper robot's model shares its chassis and wheels.
+    """
     r = params.wheel_radius
     mass = float(model.body("chassis").subtreemass[0])
     kvs = []
@@ -70,7 +79,6 @@ def build_model(params: RobotParams) -> mujoco.MjModel:
         model.actuator_biasprm[i, 2] = -kv
         limit = kv * 2.0 * params.max_wheel_speed
         model.actuator_forcerange[i] = (-limit, limit)
-    return model
 
 
 class MujocoBackend:

@@ -3,7 +3,8 @@
 A :class:`BehaviorSpec` says what a behavior is: its goal channels and their nominal
 goal, the teacher's phases from a start, its default training grid, its shipped test
 starts and the start values it fills in. ``turn``, ``approach``, ``retreat``,
-``turn-approach`` and ``position`` are entries of :data:`BEHAVIORS`; a user adds their
+``turn-approach``, ``position`` and, on the Khepera with a gripper, ``grasp`` and
+``turn-approach-grasp`` are entries of :data:`BEHAVIORS`; a user adds their
 own with :func:`register_behavior` without editing the package. Collected datasets carry
 the goal channels in their metadata (``goal``), so the learners never need a name.
 """
@@ -15,8 +16,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Final
 
+from behavior_hmm._envs import GRIPPER_ENV_ID
 from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M
-from behavior_hmm.data._channels import CHANNELS
+from behavior_hmm.data._channels import (
+    ARM_DOWN_DEG,
+    ARM_UP_DEG,
+    CHANNELS,
+    FINGERS_CLOSED_M,
+    FINGERS_OPEN_M,
+)
 from behavior_hmm.errors import ConfigError
 
 Start = dict[str, float]
@@ -26,25 +34,36 @@ TURN_DISTANCE: Final[float] = 0.5
 #: Distance (m) retreat demonstrations back away to.
 RETREAT_DISTANCE: Final[float] = 1.0
 
+#: Phases that move the gripper: ``open`` and ``close`` the fingers (target: the
+#: opening in m), ``lower`` and ``lift`` the arm (target: the arm angle in deg).
+GRIPPER_PHASES: Final[tuple[str, ...]] = ("open", "lower", "close", "lift")
 #: The kinds of phase the teacher can track: a turn steers the bearing (deg), an
-#: approach or a retreat the distance (m).
-PHASE_KINDS: Final[tuple[str, ...]] = ("turn", "approach", "retreat")
+#: approach or a retreat the distance (m), the gripper phases the arm or the fingers.
+PHASE_KINDS: Final[tuple[str, ...]] = ("turn", "approach", "retreat", *GRIPPER_PHASES)
 
 _NAME = re.compile(r"[a-z][a-z0-9_-]{0,63}\Z")
 
 
 @dataclass(frozen=True)
 class Phase:
-    """One sub-behavior of a demonstration: its kind and goal (deg for turn, m otherwise)."""
+    """One sub-behavior of a demonstration: its kind and goal (deg for turn, lower and
+    lift; m otherwise), and the tag its rows carry in the ``behavior`` column (default:
+    its kind; a grasp's four phases are tagged ``grasp`` in a composite behavior)."""
 
     name: str
     target: float
+    tag: str = ""
 
     def __post_init__(self) -> None:
         if self.name not in PHASE_KINDS:
             raise ConfigError(
                 f"unknown phase '{self.name}'; the teacher tracks {', '.join(PHASE_KINDS)}"
             )
+
+    @property
+    def label(self) -> str:
+        """What the phase's rows are tagged with in the ``behavior`` column."""
+        return self.tag or self.name
 
 
 #: ``phases(angle_deg, distance_m, goal_distance_m_or_None) -> [Phase, ...]``
@@ -85,6 +104,9 @@ class BehaviorSpec:
         (see :meth:`Teacher.demonstrate`). Simple behaviors only.
     description
         One line for ``--help`` and docs.
+    env
+        The robot the behavior needs (a gymnasium id) when it is not our Khepera, e.g.
+        ``grasp`` needs the gripper: ``collect`` uses it when no ``--env`` is given.
     """
 
     name: str
@@ -97,6 +119,7 @@ class BehaviorSpec:
     components: tuple[str, ...] = ()
     corrections: int = 0
     description: str = ""
+    env: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -213,6 +236,28 @@ def _position_phases(angle: float, distance: float, goal_distance: float | None)
     return phases
 
 
+def grasp_phases(tag: str = "") -> list[Phase]:
+    """The gripper's part of a grasp: open, lower the arm, close on the object, lift."""
+    return [
+        Phase("open", FINGERS_OPEN_M, tag),
+        Phase("lower", ARM_DOWN_DEG, tag),
+        Phase("close", FINGERS_CLOSED_M, tag),
+        Phase("lift", ARM_UP_DEG, tag),
+    ]
+
+
+def _grasp_phases(angle: float, distance: float, goal_distance: float | None) -> list[Phase]:
+    return grasp_phases()
+
+
+def _turn_approach_grasp_phases(
+    angle: float, distance: float, goal_distance: float | None
+) -> list[Phase]:
+    # approach ends where a grasp can begin: anywhere inside the distance tolerance the
+    # object lies between the lowered fingers (assets/khepera_gripper.xml)
+    return _turn_approach_phases(angle, distance, goal_distance) + grasp_phases("grasp")
+
+
 def _turn_grid() -> list[Start]:
     return [{"angle": float(a), "distance": TURN_DISTANCE} for a in range(-180, 181, 10) if a]
 
@@ -234,6 +279,25 @@ def _turn_approach_grid() -> list[Start]:
     starts = [{"angle": a, "distance": d} for a in angles for d in distances]
     starts += [{"angle": 0.0, "distance": d} for d in distances]
     starts += [{"angle": a, "distance": 0.0} for a in angles]
+    return starts
+
+
+def _grasp_grid() -> list[Start]:
+    # where an approach ends: inside the distance and angle tolerances
+    return [
+        {"angle": a, "distance": d}
+        for a in (-3.0, -1.5, 0.0, 1.5, 3.0)
+        for d in grid(0.0, DISTANCE_TOLERANCE_M, 0.0025)
+    ]
+
+
+def _turn_approach_grasp_grid() -> list[Start]:
+    # all around the object, 0.1-0.5 m away; not touching it (a turn in place touching
+    # a 5 g object shoves it away)
+    angles = [float(a) for a in range(-180, 181, 30) if a]
+    distances = grid(0.1, 0.5, 0.1)
+    starts = [{"angle": a, "distance": d} for a in angles for d in distances]
+    starts += [{"angle": 0.0, "distance": d} for d in distances]
     return starts
 
 
@@ -296,6 +360,27 @@ for _spec in (
         replan=True,
         components=("turn", "approach", "retreat"),
         description="face the object at a goal distance: turn, then approach or retreat",
+    ),
+    BehaviorSpec(
+        "grasp",
+        {"arm": ARM_UP_DEG, "object_present": 1.0},
+        _grasp_phases,
+        _grasp_grid,
+        "grasp_test.csv",
+        start_defaults={"angle": 0.0, "distance": 0.004},
+        description="open, lower the arm, close on the object and lift it (gripper robot)",
+        env=GRIPPER_ENV_ID,
+    ),
+    BehaviorSpec(
+        "turn-approach-grasp",
+        {"arm": ARM_UP_DEG, "object_present": 1.0},
+        _turn_approach_grasp_phases,
+        _turn_approach_grasp_grid,
+        "turn_approach_grasp_test.csv",
+        replan=True,
+        components=("turn", "approach", "grasp"),
+        description="turn, approach and grasp the object from all around (gripper robot)",
+        env=GRIPPER_ENV_ID,
     ),
 ):
     register_behavior(_spec)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from behavior_hmm.data import COMMAND_CHANNELS, SENSOR_CHANNELS, ChannelSpec, Dataset
+from behavior_hmm.data import CHANNELS, COMMAND_CHANNELS, SENSOR_CHANNELS, ChannelSpec, Dataset
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.teach._behaviors import Start, behavior_spec
 from behavior_hmm.teach._demonstrator import DISTURBED_CHANNELS, Teacher, TeacherConfig
@@ -66,7 +66,8 @@ def collect(
         Called as ``progress(done, total)`` after each episode.
     env
         An env that meets the robot contract (docs/robots.md) to use instead of
-        ``make_env(sim)``; its starts may reach beyond our arena.
+        ``make_env(sim)``; its starts may reach beyond our arena. ``None``: the
+        behavior's own robot if it names one (``grasp``: the Khepera with a gripper).
     env_name
         How the env was named (``--env``), recorded in the metadata.
     corrections
@@ -80,10 +81,12 @@ def collect(
     correction_noise
         The disturbance's sigma as a fraction of the robot's top wheel speed.
     """
-    from behavior_hmm.runtime import Robot
+    from behavior_hmm.runtime import Robot, make_robot_env
     from behavior_hmm.sim import make_env
 
     spec = behavior_spec(behavior)
+    if env is None and spec.env is not None:
+        env, env_name = make_robot_env(spec.env), env_name or spec.env
     if noise < 0:
         raise ConfigError(f"--noise must be >= 0, got {noise}")
     if seed < 0:
@@ -105,7 +108,9 @@ def collect(
     if not chosen:
         raise ConfigError("no starts to collect")
     own = env is None
-    full = [complete_start(behavior, s, None if own else float("inf")) for s in chosen]
+    # our robots share the arena; another robot's starts may reach beyond it
+    arena = own or spec.env is not None
+    full = [complete_start(behavior, s, None if arena else float("inf")) for s in chosen]
     env = make_env(sim, noise=noise) if own else env
     robot = Robot(env)
     tutor = Teacher(env, teacher)
@@ -156,8 +161,15 @@ def collect(
     }
     if extras:
         metadata["channels"] = [
-            ChannelSpec(c, str(units.get(c, "1")), robot.ranges[c]).to_metadata() for c in extras
+            (
+                robot.channel_specs.get(c)
+                or CHANNELS.get(c)
+                or ChannelSpec(c, str(units.get(c, "1")), robot.ranges[c])
+            ).to_metadata()
+            for c in extras
         ]
+    if robot.command_channels != COMMAND_CHANNELS:
+        metadata["commands"] = [spec.to_metadata() for spec in robot.command_specs]
     if corrections:
         metadata["corrections"] = {
             "copies": corrections,
@@ -210,7 +222,6 @@ def collect_with_teacher(
     max_steps
         A demonstration the teacher has not ended by then is an error.
     """
-    from behavior_hmm.data import CHANNELS
     from behavior_hmm.data._validate import check_behavior_name
     from behavior_hmm.errors import DatasetError
     from behavior_hmm.runtime import Robot

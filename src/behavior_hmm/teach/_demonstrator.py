@@ -1,10 +1,13 @@
 """Closed-loop s-curve demonstrators: the teacher that produces training data.
 
-A demonstration is a sequence of *phases* (turn, approach, retreat). Each phase
-plans a rest-to-rest jerk-limited profile with ruckig for one axis (the bearing
-angle or the distance) and tracks it in closed loop (feed-forward profile
+A demonstration is a sequence of *phases* (turn, approach, retreat; on a robot with a
+gripper also open, lower, close, lift). Each phase plans a rest-to-rest jerk-limited
+profile with ruckig for one axis (the bearing angle, the distance, the arm angle or the
+finger opening). The wheels track theirs in closed loop (feed-forward profile
 velocity + proportional feedback on the tracking error) so that it ends within
-tolerance of its goal even though the robot's wheels are mismatched. The
+tolerance of its goal even though the robot's wheels are mismatched; the gripper's
+servos take the profile's velocity as their speed command (a finger closing on the
+object stops against it, so its own profile is not fed back). The
 teacher steers on the simulator's noise-free state (like the thesis's Webots
 supervisor); the recorded sensor readings carry whatever noise the env adds.
 """
@@ -19,10 +22,24 @@ from typing import Any, Final
 import numpy as np
 
 from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M
+from behavior_hmm.data._channels import ARM_UP_DEG, CHANNELS
 from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.runtime import REQUIRED_CHANNELS, Robot, RobotSpec
-from behavior_hmm.teach._behaviors import BEHAVIORS, PHASE_KINDS, Phase, behavior_spec
-from behavior_hmm.teach._profiles import DISTANCE_LIMITS, TURN_LIMITS, Limits, SCurve
+from behavior_hmm.teach._behaviors import (
+    BEHAVIORS,
+    GRIPPER_PHASES,
+    PHASE_KINDS,
+    Phase,
+    behavior_spec,
+)
+from behavior_hmm.teach._profiles import (
+    ARM_LIMITS,
+    DISTANCE_LIMITS,
+    FINGER_LIMITS,
+    TURN_LIMITS,
+    Limits,
+    SCurve,
+)
 
 __all__ = ["BEHAVIORS", "PHASES", "Phase"]
 
@@ -50,6 +67,8 @@ class TeacherConfig:
     ----------
     turn_limits, distance_limits
         Profile limits for the bearing angle (deg-based) and the distance (m-based).
+    arm_limits, finger_limits
+        Profile limits for a gripper's arm angle (deg-based) and finger opening (m-based).
     angle_gain, distance_gain, heading_gain
         Proportional feedback gains (1/s) on the angle tracking error, the
         distance tracking error and, while approaching or retreating, the bearing.
@@ -57,6 +76,9 @@ class TeacherConfig:
         Distance (m) an approach aims at; inside the 0.01 m goal tolerance, short of contact.
     settle_angle, settle_distance
         Tighter tolerances (deg, m) a phase must reach after its profile ends.
+    settle_arm, settle_fingers
+        How close (deg, m) the arm and an opening finger pair must come to their target;
+        closing fingers have settled when they stop moving (on the object or closed).
     stop_steps
         Zero-command rows appended at the end: every demonstration ends commanding a stop.
     max_extra_time
@@ -65,12 +87,16 @@ class TeacherConfig:
 
     turn_limits: Limits = TURN_LIMITS
     distance_limits: Limits = DISTANCE_LIMITS
+    arm_limits: Limits = ARM_LIMITS
+    finger_limits: Limits = FINGER_LIMITS
     angle_gain: float = 3.0
     distance_gain: float = 3.0
     heading_gain: float = 2.0
     approach_target: float = 0.004
     settle_angle: float = 0.5
     settle_distance: float = 0.002
+    settle_arm: float = 1.0
+    settle_fingers: float = 0.0005
     stop_steps: int = 4
     max_extra_time: float = 4.0
 
@@ -115,21 +141,23 @@ class Demonstration:
     """Rows recorded during one demonstration (one future dataset episode)."""
 
     channels: tuple[str, ...] = ()
+    command_channels: tuple[str, ...] = ("left", "right")
     t: list[float] = field(default_factory=list)
     sensors: list[np.ndarray] = field(default_factory=list)
-    commands: list[tuple[float, float]] = field(default_factory=list)
+    commands: list[tuple[float, ...]] = field(default_factory=list)
     behavior: list[str] = field(default_factory=list)
     final_observation: np.ndarray | None = None
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         """Columns of the demonstration keyed by the data-contract names."""
         sensors = np.asarray(self.sensors, dtype=np.float64).reshape(-1, len(self.channels))
-        commands = np.asarray(self.commands, dtype=np.float64).reshape(-1, 2)
+        k = len(self.command_channels)
+        commands = np.asarray(self.commands, dtype=np.float64).reshape(-1, k)
         columns: dict[str, np.ndarray] = {"t": np.asarray(self.t, dtype=np.float64)}
         for i, name in enumerate(self.channels):
             columns[name] = sensors[:, i]
-        columns["left"] = commands[:, 0]
-        columns["right"] = commands[:, 1]
+        for i, name in enumerate(self.command_channels):
+            columns[name] = commands[:, i]
         columns["behavior"] = np.asarray(self.behavior, dtype=object)
         return columns
 
@@ -163,11 +191,13 @@ class Teacher:
         self.env = env
         self.robot = Robot(env)
         self.robot.require(REQUIRED_CHANNELS, "our teacher")
-        if self.robot.command_channels != ("left", "right"):
+        commands = self.robot.command_channels
+        if commands[:2] != ("left", "right") or not set(commands[2:]) <= set(_GRIPPER_COMMANDS):
             raise ConfigError(
-                f"our teacher drives two wheels (left, right); this robot takes "
-                f"{', '.join(self.robot.command_channels)}: give your own (--teacher)"
+                f"our teacher drives two wheels (left, right) and our gripper's arm_speed and "
+                f"finger_speed; this robot takes {', '.join(commands)}: give your own (--teacher)"
             )
+        self._rest = self.robot.rest.copy()
         spec = self.robot.spec
         self.config = config or TeacherConfig().scaled_to(spec)
         self._half_track_over_r = spec.track_width / (2.0 * spec.wheel_radius)
@@ -176,6 +206,15 @@ class Teacher:
         self._dt = self.robot.control_period
         self._dist = self.robot.channels.index("distance")
         self._angle = self.robot.channels.index("angle")
+        channels, commands = self.robot.channels, self.robot.command_channels
+        self._gripper = all(c in channels for c in _GRIPPER_SENSORS) and all(
+            c in commands for c in _GRIPPER_COMMANDS
+        )
+        self._arm = channels.index("arm") if self._gripper else -1
+        self._fingers = channels.index("fingers") if self._gripper else -1
+        self._present = channels.index("object_present") if self._gripper else -1
+        self._arm_command = commands.index("arm_speed") if self._gripper else -1
+        self._finger_command = commands.index("finger_speed") if self._gripper else -1
         self._disturbance: _Disturbance | None = None
 
     def demonstrate(
@@ -204,17 +243,25 @@ class Teacher:
         96.6 % against 96.9 / 96.5 / 96.8 % turning only; measured in development).
         """
         spec = behavior_spec(behavior)
+        phases = spec.phases(float(angle), float(distance), goal_distance)
+        if not self._gripper and any(p.name in GRIPPER_PHASES for p in phases):
+            raise ConfigError(
+                f"{behavior} needs a robot with our gripper (sensors "
+                f"{', '.join(_GRIPPER_SENSORS)}; commands {', '.join(_GRIPPER_COMMANDS)}), "
+                f"e.g. --env {spec.env or 'behavior_hmm/KheperaGripper-v0'}"
+            )
         self._disturbance = (
             _Disturbance(float(perturbation) * self._max_wheel, self._dt, seed)
             if perturbation > 0
             else None
         )
-        phases = spec.phases(float(angle), float(distance), goal_distance)
         options: dict[str, Any] = {"angle": float(angle), "distance": float(distance)}
         if noise:
             options["noise"] = float(noise)
         obs, true, _ = self.robot.reset(seed=seed, options=options)
-        demo = Demonstration(channels=self.robot.channels)
+        demo = Demonstration(
+            channels=self.robot.channels, command_channels=self.robot.command_channels
+        )
         step = 0
         done: list[Phase] = []
         pending = phases
@@ -224,8 +271,9 @@ class Teacher:
             done.append(phase)
             # Re-plan from where the robot really is: e.g. turning while touching the
             # object can push it off, so an approach becomes necessary after all.
-            if not spec.replan:
-                break
+            if not spec.replan:  # the planned phases in order (grasp: open ... lift)
+                pending = pending[1:]
+                continue
             names = {p.name for p in done}
             pending = [
                 p
@@ -233,13 +281,14 @@ class Teacher:
                 if p.name not in names
             ]
         phases = done
-        last = phases[-1].name if phases else (spec.components or (spec.name,))[0]
+        last = phases[-1].label if phases else (spec.components or (spec.name,))[0]
+        rest = tuple(self._rest.tolist())
         for _ in range(self.config.stop_steps):
             demo.t.append(step * self._dt)
             demo.sensors.append(obs)
-            demo.commands.append((0.0, 0.0))
+            demo.commands.append(rest)
             demo.behavior.append(last)
-            obs, true, _ = self.robot.step(np.zeros(2))
+            obs, true, _ = self.robot.step(self._rest)
             step += 1
         demo.final_observation = true
         self._check_goal(behavior, phases, demo.final_observation, angle, distance)
@@ -251,6 +300,8 @@ class Teacher:
         self, phase: Phase, obs: np.ndarray, true: np.ndarray, step: int, demo: Demonstration
     ) -> tuple[np.ndarray, np.ndarray, int]:
         cfg = self.config
+        if phase.name in GRIPPER_PHASES:
+            return self._run_gripper_phase(phase, obs, true, step, demo)
         if phase.name == "turn":
             # the bearing moves within (-180, 180] without wrapping: a turn never swings
             # the object behind the robot, so the readings stay continuous
@@ -271,15 +322,59 @@ class Teacher:
                     f"teacher could not finish '{phase.name}' within {limit:.1f} s "
                     f"(angle {true[self._angle]:.2f} deg, distance {true[self._dist]:.4f} m)"
                 )
-            left, right = self._command(phase, profile, t_phase, true)
+            command = self._rest.copy()
+            command[:2] = self._command(phase, profile, t_phase, true)
             demo.t.append(step * self._dt)
             demo.sensors.append(obs)
-            demo.commands.append((left, right))
-            demo.behavior.append(phase.name)
-            command = np.array([left, right])
+            demo.commands.append(tuple(command.tolist()))
+            demo.behavior.append(phase.label)
             if self._disturbance is not None and t_phase < profile.duration:
                 # disturbed while the profile runs; the teacher settles undisturbed
-                command = self._disturbance.applied(command, self._max_wheel)
+                command[:2] = self._disturbance.applied(command[:2], self._max_wheel)
+            obs, true, _ = self.robot.step(command)
+            step += 1
+            k += 1
+
+    def _run_gripper_phase(
+        self, phase: Phase, obs: np.ndarray, true: np.ndarray, step: int, demo: Demonstration
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Move the arm (lower, lift) or the fingers (open, close) along an s-curve.
+
+        The servo takes the profile's velocity as its speed command; the wheels rest. A
+        closing pair has settled when its opening stops changing (on the object, or
+        closed); the others when they are within the settle tolerance of the target.
+        """
+        cfg = self.config
+        arm = phase.name in ("lower", "lift")
+        axis = self._arm if arm else self._fingers
+        profile = SCurve(true[axis], phase.target, cfg.arm_limits if arm else cfg.finger_limits)
+        column = self._arm_command if arm else self._finger_command
+        limit = profile.duration + cfg.max_extra_time
+        before = float(true[axis])
+        k = 0
+        while True:
+            t_phase = k * self._dt
+            now = float(true[axis])
+            if t_phase >= profile.duration:
+                if phase.name == "close":
+                    settled = k > 0 and abs(now - before) < 1e-5
+                else:
+                    tol = cfg.settle_arm if arm else cfg.settle_fingers
+                    settled = abs(now - phase.target) <= tol
+                if settled:
+                    return obs, true, step
+            if t_phase > limit:
+                raise SimulationError(
+                    f"teacher could not finish '{phase.name}' within {limit:.1f} s "
+                    f"({'arm' if arm else 'fingers'} at {now:.4g}, target {phase.target:g})"
+                )
+            command = self._rest.copy()
+            command[column] = profile.at(t_phase)[1]
+            demo.t.append(step * self._dt)
+            demo.sensors.append(obs)
+            demo.commands.append(tuple(command.tolist()))
+            demo.behavior.append(phase.label)
+            before = now
             obs, true, _ = self.robot.step(command)
             step += 1
             k += 1
@@ -319,6 +414,16 @@ class Teacher:
     ) -> None:
         start = f"start angle {angle:g} deg, distance {distance:g} m"
         angle_now, distance_now = final[self._angle], final[self._dist]
+        if any(p.name == "lift" for p in phases):
+            # a grasp ends with the object held up: where the robot stood no longer counts
+            arm_now, present = final[self._arm], final[self._present]
+            if present < 0.5 or abs(arm_now - ARM_UP_DEG) > float(CHANNELS["arm"].tolerance or 0.0):
+                raise SimulationError(
+                    f"teacher missed the {behavior} goal from {start}: the object is "
+                    f"{'held' if present >= 0.5 else 'not between the fingers'} with the arm at "
+                    f"{arm_now:.1f} deg (goal {ARM_UP_DEG:g} deg, object held)"
+                )
+            return
         for phase in phases:
             goal = phase.target
             if phase.name == "turn" and abs(wrap_deg(angle_now - goal)) > ANGLE_TOLERANCE_DEG:
@@ -332,6 +437,11 @@ class Teacher:
                     f"final distance {distance_now:.4f} m, goal {goal:g} m"
                 )
 
+
+#: Our gripper's sensors and commands (behavior_hmm/KheperaGripper-v0): with them the
+#: teacher can open, lower, close and lift.
+_GRIPPER_SENSORS: Final[tuple[str, ...]] = ("arm", "fingers", "object_present")
+_GRIPPER_COMMANDS: Final[tuple[str, ...]] = ("arm_speed", "finger_speed")
 
 #: Correlation time (s) of a corrective demonstration's disturbance.
 DISTURBANCE_TIME_S: Final[float] = 0.5

@@ -29,6 +29,10 @@ class Limits:
 TURN_LIMITS = Limits(velocity=45.0, acceleration=45.0, jerk=90.0)
 #: Approach / retreat profiles act on the distance (m, m/s, m/s^2, m/s^3).
 DISTANCE_LIMITS = Limits(velocity=0.08, acceleration=0.06, jerk=0.1)
+#: A gripper's arm profiles act on the arm angle (deg, deg/s, ...): 80 deg in about 2.2 s.
+ARM_LIMITS = Limits(velocity=60.0, acceleration=120.0, jerk=480.0)
+#: A gripper's finger profiles act on the opening (m, m/s, ...): 25 mm in about 1.6 s.
+FINGER_LIMITS = Limits(velocity=0.02, acceleration=0.04, jerk=0.16)
 
 
 class SCurve:
