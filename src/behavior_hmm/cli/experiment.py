@@ -11,6 +11,7 @@ Usage::
     behavior-hmm experiment faults --fault noise          # goal reached under faults
     behavior-hmm experiment robot --env behavior_hmm/Husky-v0 -o results/husky
     behavior-hmm experiment lasa -o results/lasa           # LASA handwriting benchmark
+    behavior-hmm experiment incremental --sim kinematic   # thesis §7.1, issue 29
 """
 
 from __future__ import annotations
@@ -497,3 +498,64 @@ def experiment_lasa(
         table = write_lasa_report(results, out)
     typer.echo(table)
     log.info("results: %s/results.json, figures and table.md", out)
+
+
+@app.command("incremental")
+@user_errors
+def experiment_incremental(
+    out: OutFolder = Path("results/incremental"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+    task: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--task",
+            help="The sequence, in learning order (repeat; default turn, approach, "
+            "turn-approach, retreat, position)",
+        ),
+    ] = None,
+    bc: Annotated[
+        bool, typer.Option("--bc/--no-bc", help="Also fine-tune BC-strong stage by stage")
+    ] = True,
+) -> None:
+    """Thesis §7.1: learn behaviors one stage at a time; R matrix, ACC, BWT, FWT, times.
+
+    After every stage each task learned so far is scored on its shipped test starts,
+    for the incremental learner (SBLMs, a CBLM grown with add_component), a full refit at
+    every stage (the thesis's scheme) and BC-strong fine-tuned stage by stage. Writes
+    results.json, timings.json, table.md and incremental_R.png.
+
+    Example: behavior-hmm experiment incremental --sim kinematic -o results/incremental
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._incremental import (
+        DEFAULT_SEQUENCE,
+        check_sequence,
+        run_incremental_experiment,
+    )
+    from behavior_hmm.viz._incremental import write_incremental_report
+
+    check_sim(sim)
+    check_seed(seed)
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
+    sequence = check_sequence(task or DEFAULT_SEQUENCE)
+    results = with_progress(
+        f"experiment incremental ({sim}, {name} preset)",
+        run_incremental_experiment,
+        sim=sim,
+        seed=seed,
+        sequence=sequence,
+        sblm_params=params["SBLM"],
+        cblm_params=params["CBLM"],
+        bc=bc,
+    )
+    results["preset"] = name
+    with all_or_none():  # every file of the report, or none
+        table = write_incremental_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, timings.json, table.md and incremental_R.png", out)

@@ -1,0 +1,218 @@
+"""The R-matrix heat map and markdown tables of ``experiment incremental`` (issue 29)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from behavior_hmm.evaluate._incremental import (
+    SCHEMES,
+    TARGET_BWT,
+    TARGET_NEW_TASK_GAP,
+    TARGET_TIME_SHARE,
+    check_targets,
+    matrix,
+)
+from behavior_hmm.viz._reports import write_results_files
+from behavior_hmm.viz._traces import _save
+
+#: How each scheme is named in the tables and the figure.
+SCHEME_LABELS: Final[dict[str, str]] = {
+    "incremental": "incremental (SBLMs + growing CBLM)",
+    "full_refit": "full refit every stage (thesis)",
+    "bc_strong_finetuned": "BC-strong fine-tuned stage by stage",
+}
+
+#: File name of the heat map in the output folder.
+FIGURE_NAME: Final[str] = "incremental_R.png"
+
+
+def plot_incremental(results: Mapping[str, Any]) -> Figure:
+    """Heat maps of ``R[k, i]`` (success %, task i after stage k), one panel per scheme.
+
+    Every cell is labelled with its success rate and goals reached; cells of tasks not
+    yet learned are blank. One colour scale (%) is shared by the panels.
+    """
+    schemes = [s for s in SCHEMES if s in results["schemes"]]
+    tasks = list(results["sequence"])
+    n = len(tasks)
+    mats = [matrix(results["schemes"][s]["R"]) for s in schemes]
+    finite = np.concatenate([m[np.isfinite(m)] for m in mats])
+    low = float(np.floor(min(finite.min(), 50.0) / 10.0) * 10.0)
+    side = max(3.2, 0.75 * n + 1.2)
+    fig = Figure(figsize=(side * len(schemes) + 1.0, side + 0.6), layout="constrained")
+    axes = fig.subplots(1, len(schemes), squeeze=False)[0]
+    image = None
+    for ax, scheme, m in zip(axes, schemes, mats, strict=True):
+        goals = results["schemes"][scheme]["goals"]
+        counts = results["schemes"][scheme]["n"]
+        image = ax.imshow(
+            np.ma.masked_invalid(m), cmap="viridis", vmin=low, vmax=100.0, aspect="equal"
+        )
+        for k in range(n):
+            for i in range(k + 1):
+                value = m[k, i]
+                colour = "black" if value > low + 0.6 * (100.0 - low) else "white"
+                ax.text(
+                    i,
+                    k,
+                    f"{value:.1f}\n{goals[k][i]}/{counts[i]}",
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color=colour,
+                )
+        ax.set_xticks(range(n), tasks, rotation=35, ha="right", fontsize=8)
+        ax.set_yticks(range(n), [f"{k + 1}: {t}" for k, t in enumerate(tasks)], fontsize=8)
+        ax.set_xlabel("task i (scored on its test starts)")
+        ax.set_ylabel("after stage k (task learned)")
+        metrics = results["schemes"][scheme]["metrics"]
+        ax.set_title(
+            f"{SCHEME_LABELS[scheme]}\nACC {metrics['acc']:.1f} %, BWT {metrics['bwt']:+.2f}",
+            fontsize=9,
+        )
+    if image is not None:
+        fig.colorbar(image, ax=list(axes), shrink=0.8, label="success rate %")
+    preset = results.get("preset", "default")
+    fig.suptitle(
+        f"Incremental learning: R[k, i] ({results['sim']}, {preset} preset, seed "
+        f"{results['seed']})",
+        fontsize=10,
+    )
+    return fig
+
+
+def _fmt(value: float | None, spec: str = ".1f", sign: bool = False) -> str:
+    if value is None:
+        return "—"
+    return format(value, ("+" if sign else "") + spec)
+
+
+def incremental_markdown(results: Mapping[str, Any]) -> str:
+    """The R matrices, the summary metrics, per-stage times and the issue's targets."""
+    schemes = [s for s in SCHEMES if s in results["schemes"]]
+    tasks = list(results["sequence"])
+    timings = results.get("timings") or {}
+    preset = results.get("preset", "default")
+    lines = [
+        f"Sequence: {' → '.join(tasks)} ({results['sim']}, {preset} preset, seed "
+        f"{results['seed']}). R[k, i]: success % of task i after stage k on its "
+        "shipped test starts (goals reached / starts).",
+        "",
+    ]
+    for scheme in schemes:
+        entry = results["schemes"][scheme]
+        lines += [f"**R, {SCHEME_LABELS[scheme]}**", ""]
+        lines.append("| after stage | " + " | ".join(tasks) + " |")
+        lines.append("| --- |" + " --- |" * len(tasks))
+        for k, task in enumerate(tasks):
+            cells = []
+            for i in range(len(tasks)):
+                value = entry["R"][k][i]
+                if value is None:
+                    cells.append("")
+                else:
+                    text = f"{value:.1f} ({entry['goals'][k][i]}/{entry['n'][i]})"
+                    cells.append(f"**{text}**" if i == k else text)
+            lines.append(f"| {k + 1}: {task} | " + " | ".join(cells) + " |")
+        lines.append("")
+    lines += [
+        "| scheme | ACC % | BWT (points) | forgetting (points) | FWT (points) "
+        "| worst drop (points) | train s, total | train s per stage (median) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for scheme in schemes:
+        m = results["schemes"][scheme]["metrics"]
+        seconds = timings.get(f"{scheme}_s")
+        total = _fmt(float(np.sum(seconds))) if seconds else "—"
+        median = _fmt(float(np.median(seconds)), ".2f") if seconds else "—"
+        lines.append(
+            f"| {SCHEME_LABELS[scheme]} | {m['acc']:.1f} | {m['bwt']:+.2f} "
+            f"| {m['forgetting']:.2f} | {_fmt(m['fwt'], '.2f', sign=True)} "
+            f"| {m['worst_drop']:+.2f} | {total} | {median} |"
+        )
+    lines.append("")
+    inc = results["schemes"]["incremental"]
+    refit = results["schemes"]["full_refit"]
+    header = (
+        "| stage | task | incremental: what | new task % (incremental / refit) | inc s | refit s"
+    )
+    rule = "| --- | --- | --- | --- | --- | ---"
+    has_bc = "bc_strong_finetuned" in results["schemes"]
+    if has_bc:
+        header += " | BC-strong new task % | BC s"
+        rule += " | --- | ---"
+    lines += [header + " |", rule + " |"]
+    for k, task in enumerate(tasks):
+        row = (
+            f"| {k + 1} | {task} | {inc['how'][k]} | {inc['R'][k][k]:.1f} / "
+            f"{refit['R'][k][k]:.1f} | {_seconds(timings, 'incremental', k)} "
+            f"| {_seconds(timings, 'full_refit', k)}"
+        )
+        if has_bc:
+            bc = results["schemes"]["bc_strong_finetuned"]
+            row += f" | {bc['R'][k][k]:.1f} | {_seconds(timings, 'bc_strong_finetuned', k)}"
+        lines.append(row + " |")
+    lines.append("")
+    lines.append(
+        "FWT references (trained alone, %): "
+        + "; ".join(
+            f"{s.replace('_', ' ')} "
+            + ", ".join(f"{v:.1f}" for v in results["schemes"][s]["reference"])
+            for s in schemes
+        )
+        + "."
+    )
+    lines.append("")
+    targets = check_targets(results)
+    gaps = targets["new_task_gap"]
+    lines += [
+        "| issue 29 target | measured | met |",
+        "| --- | --- | --- |",
+        f"| BWT ≥ {TARGET_BWT:+.1f} points | {targets['bwt']:+.2f} (worst task "
+        f"{targets['worst_drop']:+.2f}) | {_yes(targets['bwt_met'])} |",
+        f"| each new task within {TARGET_NEW_TASK_GAP:.0f} point of a full refit | gaps "
+        + ", ".join(f"{g:+.1f}" for g in gaps)
+        + f" | {_yes(targets['new_task_met'])} |",
+    ]
+    if targets["time_share"] is not None:
+        medians = targets["median_s"]
+        lines.append(
+            f"| training time ≤ {TARGET_TIME_SHARE:.2f} × full refit's | "
+            f"{targets['time_share']:.2f} × (summed; per stage "
+            + ", ".join(f"{v:.2f}" for v in targets["time_share_per_stage"])
+            + f"; medians {medians['incremental']:.1f} s vs {medians['full_refit']:.1f} s) "
+            f"| {_yes(targets['time_met'])} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _seconds(timings: Mapping[str, Any], scheme: str, k: int) -> str:
+    values = timings.get(f"{scheme}_s")
+    return "—" if not values else f"{values[k]:.1f}"
+
+
+def _yes(flag: bool | None) -> str:
+    return "—" if flag is None else ("yes" if flag else "**no**")
+
+
+def write_incremental_report(results: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
+    """Write ``results.json``, ``timings.json``, ``table.md`` and the heat map; the table.
+
+    Parameters
+    ----------
+    results
+        :func:`run_incremental_experiment`'s result (with ``preset`` when known).
+    out_dir
+        Output folder (created).
+    """
+    table = incremental_markdown(results)
+    folder = write_results_files(out_dir, results, table)
+    fig = plot_incremental(results)
+    _save(fig, Path(folder) / FIGURE_NAME)
+    return table
