@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 import behavior_hmm  # noqa: F401 - registers the ids
@@ -48,9 +49,12 @@ def composed(grasp: SBLM) -> CBLM:
 def test_the_learned_grasp_lifts_the_object_from_starts_it_never_saw(grasp: SBLM, env: Any) -> None:
     assert grasp.default_goal_ == {"arm": ARM_UP_DEG, "object_present": 1.0}
     assert tuple(grasp.command_channels) == ("left", "right", "arm_speed", "finger_speed")
+    # the teacher never drives while grasping: the learned grasp holds the wheels at rest
+    assert grasp.held_commands_ == ("left", "right")
     for start in ({"angle": -1.7, "distance": 0.0025}, {"angle": 2.2, "distance": 0.0083}):
         trace = run_policy(grasp.policy(), env, start=start, seed=0)
         assert trace.goal_reached, start
+        assert not np.any(np.asarray(trace.commands)[:, :2])
         assert trace.reason == "goal"
         # the goal is the object held up: the env's own judge agrees
         _, info = env.unwrapped._observe()
@@ -60,6 +64,10 @@ def test_the_learned_grasp_lifts_the_object_from_starts_it_never_saw(grasp: SBLM
 def test_the_composed_behavior_aims_at_the_declared_goal(composed: CBLM) -> None:
     assert composed.default_goal_ == {"arm": ARM_UP_DEG, "object_present": 1.0}
     assert composed.names_ == ["turn", "approach", "grasp"]
+    # the pause at a switch is the teacher's rest around it, each command against its own
+    # scale: the wheels resting while the arm moves is no pause (it was 2.6 s, 163 cycles,
+    # when every command was measured against the arm's 60 deg/s)
+    assert 0 < composed.handover_cycles_ < 30
 
 
 @pytest.mark.parametrize(
@@ -77,3 +85,24 @@ def test_turn_approach_grasp_runs_the_components_a_start_needs(
     assert list(dict.fromkeys(c for c in trace.component if c)) == components
     _, info = env.unwrapped._observe()
     assert info["lifted"] is True
+
+
+def test_held_commands_survive_the_model_file(grasp: SBLM, tmp_path: Any) -> None:
+    from behavior_hmm.models import load
+
+    path = tmp_path / "grasp.bhmm"
+    grasp.save(path)
+    assert load(path).held_commands_ == ("left", "right")
+
+
+def test_a_pause_is_measured_per_command_unit() -> None:
+    from behavior_hmm.models._cblm import _handover_cycles
+
+    # the arm lifts at 60 deg/s, rests two cycles, then the wheels creep at 0.5 rad/s
+    # (slow against the arm's scale, not against the wheels' 8 rad/s): one switch
+    commands = np.array([[0.0, 0.0, 60.0]] * 5 + [[0.0, 0.0, 0.0]] * 2 + [[0.5, 0.5, 0.0]] * 5)
+    states = np.array([0] * 6 + [1] * 6)
+    lengths = np.array([12])
+    assert _handover_cycles(commands, states, lengths, np.array([8.0, 8.0, 60.0])) == 2
+    # one scale for all (the arm's): the creeping wheels look like rest
+    assert _handover_cycles(commands, states, lengths, 60.0) == 7

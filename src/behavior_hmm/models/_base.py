@@ -174,13 +174,30 @@ class LearnedBehavior(Estimator):
         )
         k = len(self.command_specs_)
         self.command_scales_ = np.broadcast_to(np.asarray(scales, dtype=np.float64), (k,)).copy()
+        # a command the demonstrations never move from rest (a grasp's wheels, a turn's
+        # gripper) is held at rest: the generators' small errors never move it
+        u = np.asarray(dataset.commands, dtype=np.float64).reshape(-1, k)
+        rest = self.rest_command
+        self.held_commands_ = tuple(
+            spec.name for j, spec in enumerate(self.command_specs_) if np.all(u[:, j] == rest[j])
+        )
+
+    @property
+    def held_mask(self) -> NDArray[np.bool_]:
+        """Per command channel, whether it is held at rest (``held_commands_``)."""
+        held = set(getattr(self, "held_commands_", ()))
+        return np.array([c in held for c in self.command_channels], dtype=bool)
 
     def _commands_state(self) -> dict[str, Any]:
         """The command channels and scales as the model file stores them."""
-        return {
+        state: dict[str, Any] = {
             "commands": [spec.to_metadata() for spec in self.command_specs_],
             "command_scales": [float(v) for v in self.command_scales_],
         }
+        held = getattr(self, "held_commands_", ())
+        if held:  # files of models that move every command stay as they were
+            state["held_commands"] = list(held)
+        return state
 
     def _restore_commands(self, state: Mapping[str, Any]) -> None:
         """The command channels and scales of a model file (older files: the wheels)."""
@@ -209,6 +226,11 @@ class LearnedBehavior(Estimator):
         self.command_scales_ = np.array(
             [_modelfile.check_number(v, "command_scales", positive=True) for v in scales]
         )
+        held = state.get("held_commands", [])
+        names = [spec.name for spec in self.command_specs_]
+        if not isinstance(held, list) or any(c not in names for c in held):
+            raise ModelFileError("held_commands must list command channels of the model")
+        self.held_commands_ = tuple(str(c) for c in held)
 
     def _check_same_robot(self, dataset: Any, inputs: tuple[str, ...], owner: str) -> None:
         """Refuse (ConfigError) new demonstrations of another robot than the fitted one:

@@ -258,7 +258,10 @@ class CBLM(LearnedBehavior):
         self._learn_commands(dataset, scales)
         self.delta_scale_ = _largest_step(dataset.commands, lengths)
         self.handover_cycles_ = _handover_cycles(
-            dataset.commands, states, lengths, self.command_scale_
+            dataset.commands,
+            states,
+            lengths,
+            scales if len(set(units)) > 1 else self.command_scale_,
         )
         self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         # the behavior's declared goal (the dataset's ``goal``, from its spec: grasp's arm
@@ -441,7 +444,9 @@ class CBLM(LearnedBehavior):
             scales = np.full(len(units), scale)
         handover = self.handover_cycles_
         if handover == 0:
-            handover = _handover_cycles(commands, states, lengths, scale)
+            handover = _handover_cycles(
+                commands, states, lengths, scales if len(set(units)) > 1 else scale
+            )
         behavior = str(dataset.metadata.get("behavior") or self.behavior_)
         record: dict[str, Any] = {
             "component": name,
@@ -734,15 +739,21 @@ HANDOVER_REST = 0.01
 
 
 def _handover_cycles(
-    commands: np.ndarray, states: np.ndarray, lengths: np.ndarray, scale: float
+    commands: np.ndarray, states: np.ndarray, lengths: np.ndarray, scale: float | np.ndarray
 ) -> int:
     """The demonstrations' typical pause at a component switch (control cycles).
 
     For each switch, the consecutive cycles on either side of it whose commands (both
     wheels) stay under ``HANDOVER_REST * scale``; the median over all switches (0 when
-    the demonstrations never switch).
+    the demonstrations never switch). ``scale``: one number, or one per command channel
+    for commands in several units (a gripper's arm in deg/s beside wheels in rad/s: each
+    channel against its own scale).
     """
-    slow = np.max(np.abs(np.asarray(commands, dtype=np.float64)), axis=1) < HANDOVER_REST * scale
+    u = np.abs(np.asarray(commands, dtype=np.float64))
+    if np.ndim(scale) == 0:
+        slow = np.max(u, axis=1) < HANDOVER_REST * float(scale)
+    else:
+        slow = np.max(u / np.asarray(scale, dtype=np.float64), axis=1) < HANDOVER_REST
     pauses = []
     start = 0
     for length in np.asarray(lengths, dtype=np.int64).tolist():

@@ -263,6 +263,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._hmm = model.hmm_
         self._gens = model.generators_
         self._scale = np.asarray(model.command_scales_, dtype=np.float64)
+        self._held = model.held_mask if getattr(model, "held_commands_", ()) else None
         norm = model.pipeline_.normalizer
         self._lo = np.array(norm.lo, dtype=np.float64)
         self._gain = np.array(norm.gain, dtype=np.float64)
@@ -465,7 +466,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         changed = state != self._state
         self._state = state
         self._started = True
-        y = self._features.commit(self._gens.predict_one(self._features.row(), state))
+        y = self._gens.predict_one(self._features.row(), state)
+        if self._held is not None:  # commands its demonstrations never moved stay at rest
+            y = np.where(self._held, self._rest_command / self._scale, y)
+        y = self._features.commit(y)
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
 
     def _decode(self, category: int) -> int:
