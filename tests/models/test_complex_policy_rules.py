@@ -175,3 +175,80 @@ def test_forward_goals_keep_a_channel_the_sub_goal_would_send_back() -> None:
 def test_the_phases_are_named() -> None:
     names = {p.value for p in Phase}
     assert names == {"choosing", "running", "settling", "paused", "stopping"}
+
+
+# -- the reach rule: turn, approach and grasp on (distance, |angle|, arm) -------------------
+
+GRIP_SPECS = {
+    **SPECS,
+    "arm": ChannelSpec("arm", "deg", (0.0, 80.0), tolerance=3.0),
+}
+GRIP_CHANNELS = ("distance", "angle", "arm")
+# per cycle on (distance, |angle|, arm): turn shrinks |angle|, approach the distance,
+# grasp moves the arm (down, then up: a small net effect) and neither wheel channel
+GRIP_EFFECTS = np.array([[0.0, -0.4, 0.0], [-8e-4, -4e-4, 0.0], [1e-5, -2e-4, -4e-4]])
+GRIP_GOALS = [{"angle": 0.0}, {"distance": 0.0}, {"arm": 80.0}]
+GRIP_GOAL_CHANNELS = [tuple(g) for g in GRIP_GOALS]
+# where the demonstrations start each one: turn anywhere 0.1-0.5 m away, approach facing
+# the object (|angle| <= 0.3 deg) from 0.1-0.5 m, grasp 4 mm from it, arm up
+REACH = np.array(
+    [
+        [[0.1, 0.5], [30.0, 180.0], [80.0, 80.0]],
+        [[0.1, 0.5], [0.0, 0.3], [80.0, 80.0]],
+        [[0.0036, 0.0037], [0.1, 0.13], [80.0, 80.0]],
+    ]
+)
+
+
+def _fix(comp: int, values: dict[str, float], unable: tuple[int, ...] = ()) -> int | None:
+    from behavior_hmm.models._complex_policy import reach_fix
+
+    return reach_fix(
+        comp,
+        values,
+        GRIP_SPECS,
+        GRIP_CHANNELS,
+        GRIP_EFFECTS,
+        REACH,
+        GRIP_GOAL_CHANNELS,
+        GRIP_GOALS,
+        unable=unable,
+    )
+
+
+def test_a_grasp_out_of_reach_gets_an_approach_first() -> None:
+    # the object nudged 2 cm away: approach first
+    assert _fix(2, {"distance": 0.022, "angle": 0.5, "arm": 80.0}) == 1
+    # within half a tolerance of where grasps start: none
+    assert _fix(2, {"distance": 0.008, "angle": 0.5, "arm": 80.0}) is None
+    # turned 4 deg off (outside turn's own goal): turn first
+    assert _fix(2, {"distance": 0.004, "angle": -4.0, "arm": 80.0}) == 0
+    # 2.5 deg off: out of the grasp's reach, but turn's goal already holds: nothing to run
+    assert _fix(2, {"distance": 0.004, "angle": -2.5, "arm": 80.0}) is None
+    # approach cannot start from here: no other component brings the distance back
+    assert _fix(2, {"distance": 0.022, "angle": 0.5, "arm": 80.0}, unable=(1,)) is None
+
+
+def test_a_component_is_not_held_to_what_it_moves_or_starts_anywhere_on() -> None:
+    # turn starts at any distance 0.1-0.5 m (40 tolerances wide): not needed
+    assert _fix(0, {"distance": 0.9, "angle": 120.0, "arm": 80.0}) is None
+    # approach moves the distance itself: from 2 cm it is not sent elsewhere
+    assert _fix(1, {"distance": 0.02, "angle": 0.2, "arm": 80.0}) is None
+    # an arm down is out of approach's reach, but nothing lifts it (grasp's net effect
+    # lowers it): none
+    assert _fix(1, {"distance": 0.3, "angle": 0.2, "arm": 10.0}) is None
+
+
+def test_a_grasp_is_held_to_its_reach_only_until_it_has_begun() -> None:
+    from behavior_hmm.models._complex_policy import not_begun
+
+    def begun(arm: float) -> bool:
+        values = {"distance": 0.02, "angle": 0.0, "arm": arm}
+        return not not_begun(2, values, GRIP_SPECS, GRIP_CHANNELS, REACH, GRIP_GOAL_CHANNELS)
+
+    assert not begun(80.0)  # fingers opening, arm still up
+    assert not begun(78.6)  # within half a tolerance
+    assert begun(70.0)  # lowering: its own work has begun
+    # an approach starts anywhere on its goal's distance: never held while it runs
+    approach = {"distance": 0.19, "angle": 3.2, "arm": 80.0}
+    assert not not_begun(1, approach, GRIP_SPECS, GRIP_CHANNELS, REACH, GRIP_GOAL_CHANNELS)

@@ -106,6 +106,14 @@ class CBLM(LearnedBehavior):
     handover_pause
         When a component ends at rest, the next one starts after the demonstrations'
         pause at a switch (``handover_cycles_``; thesis: False, at once).
+    reach_check
+        A component that holds some commands at rest (``held_commands_``: grasp never
+        moves the wheels) starts, and goes on until it has begun its own work, only near
+        where its demonstrations start it on the inputs it needs and cannot move itself
+        (``reach_``): grasp only with the object as close and as straight ahead as at
+        the end of an approach. Elsewhere the component whose goal states that input and
+        whose effect brings it back runs first: approach again after the object is
+        nudged away (thesis: False).
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -124,6 +132,10 @@ class CBLM(LearnedBehavior):
         (MuJoCo turn & approach: 23 cycles, 0.37 s).
     effects_ : ndarray of shape (n_components, n_inputs)
         Each component's mean per-step effect on each input in the demonstrations.
+    reach_ : ndarray of shape (n_components, n_inputs, 2)
+        The smallest and largest value of each input (of its magnitude for an angle)
+        where the demonstrations start each component (NaN: it never runs); ``None`` in
+        model files written before it existed.
     updates_ : list of dict
         One record per :meth:`add_component` since the last :meth:`fit` (saved with the
         model): the ``component`` added, the new data's ``dataset_sha256``, ``episodes``,
@@ -152,6 +164,7 @@ class CBLM(LearnedBehavior):
         settle_cycles: int = 64,
         forward_goals: bool = True,
         handover_pause: bool = True,
+        reach_check: bool = True,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -170,6 +183,7 @@ class CBLM(LearnedBehavior):
         self.settle_cycles = settle_cycles
         self.forward_goals = forward_goals
         self.handover_pause = handover_pause
+        self.reach_check = reach_check
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -178,7 +192,13 @@ class CBLM(LearnedBehavior):
         rho = self.observation_vigilance
         if isinstance(rho, bool) or not isinstance(rho, int | float) or not 0 <= rho <= 1:
             raise ConfigError(f"observation_vigilance must lie in [0, 1], got {rho!r}")
-        for name in ("repair", "preempt_uncovered", "forward_goals", "handover_pause"):
+        for name in (
+            "repair",
+            "preempt_uncovered",
+            "forward_goals",
+            "handover_pause",
+            "reach_check",
+        ):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         check_rate_limit(self.command_rate_limit)
@@ -280,6 +300,7 @@ class CBLM(LearnedBehavior):
         )
         wraps = [self.channel_spec(c).wraps for c in inputs]
         self.effects_ = _effects(states, raw, lengths, len(components), wraps)
+        self.reach_: np.ndarray | None = _reach(states, raw, lengths, len(components), wraps)
         self.train_data_: str | None = None  # set by the command line to the data file
         self._record_provenance(dataset)
         self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
@@ -435,6 +456,7 @@ class CBLM(LearnedBehavior):
         raw = dataset.columns(inputs)
         wraps = [self.channel_spec(c).wraps for c in inputs]
         effect = _effects(states, raw, lengths, len(names), wraps)[k]
+        reach = _reach(states, raw, lengths, len(names), wraps)[k]
         commands = np.asarray(dataset.commands, dtype=np.float64)
         scale = max(self.command_scale_, float(np.max(np.abs(commands))))
         units = [spec.unit for spec in self.command_specs_]
@@ -469,6 +491,8 @@ class CBLM(LearnedBehavior):
         self.__dict__.pop("_latest_physical", None)  # cache of category_values
         self.hmm_ = hmm
         self.effects_ = np.vstack([self.effects_, effect[None, :]])
+        if self.reach_ is not None:
+            self.reach_ = np.concatenate([self.reach_, reach[None]], axis=0)
         self.command_scale_ = scale
         self.command_scales_ = np.asarray(scales, dtype=np.float64)
         self.delta_scale_ = max(self.delta_scale_, _largest_step(commands, lengths))
@@ -562,6 +586,8 @@ class CBLM(LearnedBehavior):
         arrays["obs.counts"] = self.observations_.counts_
         arrays["obs.dcm_scale"] = self.observations_.dcm_scale_
         arrays["effects"] = self.effects_
+        if self.reach_ is not None:
+            arrays["reach"] = self.reach_
         for i, component in enumerate(self.components_):
             arrays[f"component.{i}"] = np.frombuffer(_model_bytes(component), dtype=np.uint8)
         state = {
@@ -602,7 +628,7 @@ class CBLM(LearnedBehavior):
             raise ModelFileError(
                 f"kinds must list 1 to {_modelfile.MAX_COMPONENTS} component kinds"
             )
-        own = {"obs.prototypes", "obs.counts", "obs.dcm_scale", "effects"}
+        own = {"obs.prototypes", "obs.counts", "obs.dcm_scale", "effects", "reach"}
         own |= {f"component.{i}" for i in range(len(kinds))}
         extra = sorted(k for k in arrays if k not in own and not k.startswith("hmm."))
         if extra:
@@ -648,6 +674,13 @@ class CBLM(LearnedBehavior):
         if effects.shape != (len(components), len(inputs)):
             raise ModelFileError("effects must have one row per component, one column per input")
         model.effects_ = effects
+        # files written before the reach existed have none: no reach check then
+        model.reach_ = None
+        if "reach" in arrays:
+            reach = _modelfile.check_array(arrays, "reach", ndim=3, finite=False)
+            if reach.shape != (len(components), len(inputs), 2) or np.isinf(reach).any():
+                raise ModelFileError("reach must be (components, inputs, 2), without infinities")
+            model.reach_ = reach
         # files written before the rate limit existed have none: no limit then
         delta = _modelfile.check_number(state.get("delta_scale", 0.0), "delta_scale")
         if delta < 0:
@@ -769,6 +802,33 @@ def _handover_cycles(
             pauses.append(after - before - 1)
         start = end
     return int(np.median(pauses)) if pauses else 0
+
+
+def _reach(
+    states: np.ndarray,
+    raw: np.ndarray,
+    lengths: np.ndarray,
+    n_components: int,
+    wraps: Sequence[bool],
+) -> np.ndarray:
+    """Where each component starts: ``reach[k, j]`` = (min, max) of input ``j`` (of
+    ``|x|`` for a wrapping channel, as in :func:`_effects`) over the rows on which the
+    demonstrations switch to component ``k`` (an episode's first row included); NaN for a
+    component that never runs."""
+    values = np.array(raw, dtype=np.float64)
+    for j, wrapping in enumerate(wraps):
+        if wrapping:
+            values[:, j] = np.abs(values[:, j])
+    starts = np.ones(len(states), dtype=bool)
+    starts[1:] = states[1:] != states[:-1]
+    starts[np.cumsum(lengths)[:-1]] = True  # every episode's first row
+    reach = np.full((n_components, values.shape[1], 2), np.nan)
+    for k in range(n_components):
+        rows = starts & (states == k)
+        if rows.any():
+            reach[k, :, 0] = values[rows].min(axis=0)
+            reach[k, :, 1] = values[rows].max(axis=0)
+    return reach
 
 
 def _effects(

@@ -191,6 +191,104 @@ def repair_candidates(
     return order
 
 
+def reach_fix(
+    comp: int,
+    values: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+    channels: Sequence[str],
+    effects: FloatArray,
+    reach: FloatArray,
+    goal_channels: Sequence[Collection[str]],
+    goals: Sequence[Mapping[str, float]],
+    unable: Collection[int] = (),
+) -> int | None:
+    """Reach rule: the component to run before ``comp``, which is out of its reach here.
+
+    A component *needs* an input when its demonstrations start it within about that
+    channel's tolerance (``reach`` no wider than two tolerances) and it does not move
+    the channel itself (its effect under a tenth of the largest). Grasp, for one,
+    starts with the object 4 mm ahead and never moves the wheels. Where such a channel
+    lies more than half a tolerance outside the reach, the component whose own goal
+    states the channel, whose effect brings it back and whose goal does not already hold
+    runs first (the largest such effect).
+
+    Parameters
+    ----------
+    comp
+        The component about to run, or running.
+    values
+        The current (filtered) readings, physical units.
+    specs, channels, effects, goal_channels, unable
+        As for :func:`preempting_component`.
+    reach
+        ``(components, channels, 2)``: where each component starts (``CBLM.reach_``;
+        of the magnitude for an angle).
+    goals
+        Per component, its own goal (physical units).
+
+    Returns
+    -------
+    int or None
+        The component to run first; ``None``: ``comp`` is within its reach, or no
+        component can bring it there.
+    """
+    for j, channel in enumerate(channels):
+        tolerance = specs[channel].tolerance
+        lo, hi = reach[comp, j]
+        if tolerance is None or not (np.isfinite(lo) and np.isfinite(hi)):
+            continue
+        if hi - lo > 2.0 * tolerance:
+            continue  # it starts anywhere on this channel: it does not need it
+        scale = float(np.max(np.abs(effects[:, j])))
+        if abs(effects[comp, j]) > 0.1 * scale:
+            continue  # it moves this channel itself
+        value = abs(values[channel]) if specs[channel].wraps else values[channel]
+        if lo - 0.5 * tolerance <= value <= hi + 0.5 * tolerance:
+            continue
+        gain = (1.0 if value < lo else -1.0) * effects[:, j]
+        for k in np.argsort(-gain, kind="stable").tolist():
+            if (
+                k != comp
+                and gain[k] > 0
+                and channel in goal_channels[k]
+                and k not in unable
+                and not within_tolerance(values, {channel: goals[k][channel]}, specs=specs)
+            ):
+                return int(k)
+    return None
+
+
+def not_begun(
+    comp: int,
+    values: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+    channels: Sequence[str],
+    reach: FloatArray,
+    goal_channels: Sequence[Collection[str]],
+) -> bool:
+    """Reach rule: whether a running component has not yet begun its own work.
+
+    True while every input its goal states still lies where its demonstrations start it
+    (within half a tolerance of ``reach``), and they start it at one place on at least
+    one of them (a reach no wider than two tolerances): a grasp that has opened its
+    fingers but not yet lowered its arm. Only until then is a running component held to
+    its reach (:func:`reach_fix`): once begun, it moves what it needs (the object rides
+    in its fingers). An approach, started anywhere on its goal's distance, has always
+    begun.
+    """
+    placed = False
+    for j, channel in enumerate(channels):
+        tolerance = specs[channel].tolerance
+        lo, hi = reach[comp, j]
+        if channel not in goal_channels[comp] or tolerance is None or not np.isfinite(lo):
+            continue
+        value = abs(values[channel]) if specs[channel].wraps else values[channel]
+        if not lo - 0.5 * tolerance <= value <= hi + 0.5 * tolerance:
+            return False
+        placed = placed or hi - lo <= 2.0 * tolerance
+    return placed
+
+
 def undone(
     finished: Mapping[int, Mapping[str, float]],
     values: Mapping[str, float],
@@ -268,8 +366,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
     (``_start``, ``_carry_on``, ``_settle``, ``_hand_back``, ``_skip``, ``_wait``,
     ``_reopen``, and the stop in :meth:`step`). The CBLM's runtime additions are rules
     that can be tested alone: :class:`Debounce`, :func:`preempting_component`,
-    :func:`repair_candidates`, :func:`undone`, :func:`settles_in_goal` and
-    :func:`on_the_way`.
+    :func:`repair_candidates`, :func:`undone`, :func:`settles_in_goal`,
+    :func:`on_the_way`, :func:`reach_fix` and :func:`not_begun`.
 
     Parameters
     ----------
@@ -308,6 +406,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._alternatives = int(model.start_alternatives)
         self._settle_cycles = int(getattr(model, "settle_cycles", 0))
         self._forward = bool(getattr(model, "forward_goals", False))
+        #: where each component starts (``CBLM.reach_``); None: no reach check
+        reach = getattr(model, "reach_", None)
+        self._reach = reach if bool(getattr(model, "reach_check", False)) else None
         pause = bool(getattr(model, "handover_pause", False))
         self._handover = int(getattr(model, "handover_cycles_", 0)) if pause else 0
         #: per component, the channels its own goal states (the rules' ``goal_channels``)
@@ -485,6 +586,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
             out = self._preempt(values, [s.state for s in segments], reading, category, novel)
             if out is not None:
                 return out
+        if self._reach is not None:
+            out = self._out_of_reach(segment.state, running, values, reading, category, novel)
+            if out is not None:
+                return out
         if running and segment.state != self._active and self._debounce.holds(segment.state):
             return self._carry_on(reading, category, novel)
         self._debounce.clear()
@@ -531,6 +636,61 @@ class ComplexPolicy(GoalTracking, RateLimited):
             del self._finished[fix]
         else:
             self._finished[fix] = fix_goal
+        return None
+
+    def _out_of_reach(
+        self,
+        planned: int,
+        running: bool,
+        values: Mapping[str, float],
+        reading: Mapping[str, float],
+        category: int,
+        novel: bool,
+    ) -> StepOutput | None:
+        """Run first what brings the running or the planned component into its reach.
+
+        (:func:`reach_fix`; None: both are within it, or nothing can bring them.) Only
+        a component that holds some commands at rest (``held_commands_``: a grasp, the
+        wheels) is held to its reach: it cannot bring back what they move. The running
+        one is held to it until it has begun (:func:`not_begun`), the planned one before
+        it starts. The component run for it finishes its job (``_committed``) before the
+        plan goes on.
+        """
+        reach = self._reach
+        assert reach is not None
+        held = []
+        if running and not_begun(
+            self._active, values, self.channel_specs, self._channels, reach, self._goal_channels
+        ):
+            held.append(self._active)
+        if not running or planned != self._active:
+            held.append(planned)
+        goals = [c.default_goal_ for c in self.model.components_]
+        for comp in held:
+            if not getattr(self.model.components_[comp], "held_commands_", ()):
+                # it commands everything the robot moves: it can bring back what it needs
+                continue
+            fix = reach_fix(
+                comp,
+                values,
+                self.channel_specs,
+                self._channels,
+                self.model.effects_,
+                reach,
+                self._goal_channels,
+                goals,
+                unable=self._unable,
+            )
+            if fix is None:
+                continue
+            sub_goal = {c: self.goal.get(c, v) for c, v in goals[fix].items()}
+            renew = not (running and fix == self._active)
+            out, started = self._start_checked(fix, sub_goal, reading, category, novel, renew)
+            if started:
+                self._committed = True
+                self._debounce.clear()
+                return out
+            self._unable.add(fix)
         return None
 
     # -- transitions -----------------------------------------------------------------------

@@ -185,6 +185,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "after a component ends at rest, wait as long as the teacher rests at a switch",
     ),
     Departure(
+        "reach_check",
+        {"CBLM": {"reach_check": False}},
+        "a component starts only near where its demonstrations start it (grasp: object close)",
+    ),
+    Departure(
         "start_alternatives",
         {"CBLM": {"start_alternatives": 0}},
         "an unplannable start category tries up to 5 runner-up categories",
