@@ -134,3 +134,29 @@ def test_an_object_nudged_after_the_approach_is_approached_again(
     blind = CBLM(**{**model.get_params(), "reach_check": False}).fit(data)
     trace = run_policy(blind.policy(), nudged, start=start, seed=0, max_steps=1500)
     assert not trace.goal_reached
+
+
+def test_evaluate_and_generate_run_grasp_on_its_own_robot(grasp: SBLM, tmp_path: Any) -> None:
+    """No --env: the command line takes the robot the behavior needs (the gripper's)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from behavior_hmm.cli import app
+
+    model = tmp_path / "grasp.bhmm"
+    grasp.save(model)
+    starts = tmp_path / "starts.csv"
+    starts.write_text("angle,distance\n-2,0.003\n1,0.008\n")
+    runner = CliRunner()
+    out = tmp_path / "eval.json"
+    result = runner.invoke(
+        app, ["evaluate", str(model), "--starts", str(starts), "--json", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    assert json.loads(out.read_text())["goal_reached"] == 2
+    trace = tmp_path / "run.parquet"
+    start = ["--start", "angle=0.5,distance=0.004"]
+    result = runner.invoke(app, ["generate", str(model), *start, "-o", str(trace)])
+    assert result.exit_code == 0, result.output
+    assert '"goal_reached": true' in result.output

@@ -572,6 +572,16 @@ def load_model(path: Path) -> Any:
     return model
 
 
+def behavior_env(model: Any, env: str | None) -> str | None:
+    """``--env``, else the robot the model's behavior needs (grasp: the gripper robot)."""
+    if env is not None:
+        return env
+    from behavior_hmm.teach import BEHAVIORS
+
+    spec = BEHAVIORS.get(str(getattr(model, "behavior_", "")))
+    return None if spec is None else spec.env
+
+
 def open_env(sim: str, env: str | None, env_kwargs: str | None) -> tuple[Any, str]:
     """The env to run on and its name: ``--env`` (with ``--env-kwargs``) or ``--sim``."""
     from behavior_hmm.runtime import Robot, make_robot_env, parse_env_kwargs

@@ -37,6 +37,7 @@ from behavior_hmm.cli._common import (
     TeacherOption,
     VideoBackendOption,
     WorkersOption,
+    behavior_env,
     check_noise,
     check_seed,
     check_sim,
@@ -354,7 +355,7 @@ def generate(
     model = load_model(model_file)
     if target is not None:
         model.resolve_goal(target)  # refuse a bad goal before any motion
-    robot, robot_name = open_env(sim, env, env_kwargs)
+    robot, robot_name = open_env(sim, behavior_env(model, env), env_kwargs)
     warn_provenance(model, robot, robot_name)
     trace = model.generate(robot, start=begin, goal=target, seed=seed, noise=noise or None)
     summary = trace.summary()
@@ -545,6 +546,9 @@ def evaluate(
     if videos is not None:
         check_video(videos / "case_00.mp4", video_backend)
     model = load_model(model_file)
+    own = behavior_env(model, None)
+    if robot is None and own is not None:  # grasp: on the robot with the gripper
+        robot, robot_name = open_env(sim, own, None)
     if baseline and data is None and getattr(model, "train_data_", None):
         # the baselines train on the model's own data file: never write over it
         inputs["the model's training data"] = Path(model.train_data_)
