@@ -55,6 +55,15 @@ def test_demo_collects_trains_composes_and_evaluates(invoke: Invoke, tmp_path: P
             assert gif.n_frames > 10
         report = (out / f"{behavior}_report.html").read_text()
         assert report.count("<img") >= 1
+    # grasp, on the Khepera with a gripper (MuJoCo whatever --sim says)
+    grasp = data.read(out / "grasp.parquet")
+    assert grasp.metadata["env"] == "behavior_hmm/KheperaGripper-v0"
+    assert len(grasp) == len(default_starts("grasp"))
+    png_size(out / "grasp_run.png")
+    assert (out / "grasp.bhmm").stat().st_size > 0
+    assert (out / "grasp_report.html").read_text().count("<img") >= 1
+    row = next(line for line in result.stdout.splitlines() if "grasp (gripper robot)" in line)
+    assert row.split()[-1] == "15/15"  # every object lifted
     # the report table: one row per behavior with its success rate, floor and goals
     assert "success %" in result.stdout and "zero floor %" in result.stdout
     assert "/15" in result.stdout

@@ -135,11 +135,17 @@ class BehaviorCloning(Estimator):
         specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
         self.channels_ = {c: specs[c] for c in inputs if c in specs}
         # the data contract's goal channels; else the dataset's goal on the inputs (a
-        # robot's own channels, e.g. x, y); else the first input
+        # robot's own channels, e.g. x, y); else the first input. A declared goal on
+        # neither angle nor distance (grasp: arm and object_present) is the goal even
+        # when angle or distance are inputs too: else the network would stop where the
+        # approach ends.
         declared = [c for c in (dataset.metadata.get("goal") or {}) if c in inputs]
-        goal_channels = (
-            tuple(c for c in _DEFAULT_GOALS if c in inputs) or tuple(declared) or (inputs[0],)
-        )
+        if declared and not any(c in _DEFAULT_GOALS for c in declared):
+            goal_channels = tuple(declared)
+        else:
+            goal_channels = (
+                tuple(c for c in _DEFAULT_GOALS if c in inputs) or tuple(declared) or (inputs[0],)
+            )
         # the goal of each episode: where it ends (its own goal, for goal-varying data)
         goal_cols = [inputs.index(c) for c in goal_channels]
         episode_goal = x[finals][:, goal_cols]
