@@ -428,3 +428,14 @@ def test_a_push_after_a_component_finished_runs_it_afresh(cblm: CBLM, kinematic_
     )
     assert pushed.reason == "goal" and pushed.goal_reached
     assert "approach" in pushed.component[push_step:]
+
+
+def test_sblm_and_cblm_share_one_fit_sequence() -> None:
+    """One fit (models._base): the kinds supply its steps, not copies of the sequence."""
+    from behavior_hmm.models import SBLM
+    from behavior_hmm.models._base import LearnedBehavior
+
+    assert SBLM.fit is LearnedBehavior.fit and CBLM.fit is LearnedBehavior.fit
+    for kind in (SBLM, CBLM):
+        for step in ("_fit_setup", "_fit_rows", "_fit_learn", "_fit_finish"):
+            assert getattr(kind, step) is not getattr(LearnedBehavior, step), (kind, step)

@@ -51,7 +51,81 @@ class LearnedBehavior(Estimator):
     hmm_: Any
     rest_values_: dict[str, float]
 
+    train_data_: str | None
+    behavior_: str
+    updates_: list[dict[str, Any]]
+
     kind = "model"
+    #: ``behavior_`` of demonstrations that do not name theirs
+    _unnamed = "behavior"
+
+    # ----------------------------------------------------------------- fit
+    def fit(self, dataset: Any) -> Self:
+        """Learn the behavior from demonstrations: the sequence both kinds share.
+
+        1. Check the parameters and pick the inputs among the dataset's channels
+           (:meth:`_fit_setup`; a CBLM also checks its components).
+        2. Choose the rows to learn from (:meth:`_fit_rows`: an SBLM's nominal and
+           corrective demonstrations, a CBLM's rows tagged with their component).
+        3. Filter and normalize the inputs (``pipeline_``).
+        4. Learn the kind's own tables (:meth:`_fit_learn`: an SBLM's primitives,
+           observations, Behavior-HMM and generators; a CBLM's observations and
+           Behavior-HMM between its components) and the commands' scales.
+        5. Record what both keep: ``inputs_``, ``rest_values_`` (the median final
+           reading of each input), ``behavior_``, the provenance and the inputs'
+           declarations (``channels_``); no updates yet, no training data file.
+        6. Finish (:meth:`_fit_finish`: the default goal, the step limit, ...).
+
+        Parameters
+        ----------
+        dataset
+            A :class:`~behavior_hmm.data.Dataset` of demonstrations (every episode from
+            rest to the goal; a complex behavior's rows tagged with their component).
+
+        Returns
+        -------
+        self
+        """
+        from behavior_hmm.data import Dataset
+
+        inputs, context = self._fit_setup(dataset)
+        if not isinstance(dataset, Dataset):
+            raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        dataset, context = self._fit_rows(dataset, inputs, context)
+        pipeline = SignalPipeline.for_dataset(dataset, inputs, getattr(self, "cutoff_hz", None))
+        x = pipeline.transform(dataset)
+        self._fit_learn(dataset, x, inputs, pipeline, context)
+        raw = dataset.columns(inputs)
+        finals = dataset.offsets[1:] - 1
+        self.inputs_ = inputs
+        self.pipeline_ = pipeline
+        self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
+        self.train_data_ = None  # set by the command line to the data file
+        self.behavior_ = str(dataset.metadata.get("behavior", self._unnamed))
+        self.updates_ = []  # partial_fit's or add_component's records
+        self._record_provenance(dataset)  # and channels_, the inputs' declarations
+        self._fit_finish(dataset, x, inputs, raw, finals, context)
+        return self
+
+    def _fit_setup(self, dataset: Any) -> tuple[tuple[str, ...], Any]:
+        """Fit step 1: check the parameters; the inputs and what later steps need."""
+        raise NotImplementedError
+
+    def _fit_rows(self, dataset: Any, inputs: tuple[str, ...], context: Any) -> tuple[Any, Any]:
+        """Fit step 2: the demonstrations (rows) to learn from, and the context."""
+        raise NotImplementedError
+
+    def _fit_learn(
+        self, dataset: Any, x: Any, inputs: tuple[str, ...], pipeline: Any, context: Any
+    ) -> None:
+        """Fit step 4: the kind's own tables from the filtered, normalized inputs ``x``."""
+        raise NotImplementedError
+
+    def _fit_finish(
+        self, dataset: Any, x: Any, inputs: tuple[str, ...], raw: Any, finals: Any, context: Any
+    ) -> None:
+        """Fit step 6: what the kind derives once the common state is set."""
+        raise NotImplementedError
 
     @classmethod
     def from_preset(cls, preset: str = "default", /, **params: Any) -> Any:

@@ -144,6 +144,7 @@ class CBLM(LearnedBehavior):
     """
 
     kind = "CBLM"
+    reach_: np.ndarray | None
 
     def __init__(
         self,
@@ -224,21 +225,31 @@ class CBLM(LearnedBehavior):
             raise ConfigError(f"component names must be distinct, got {names}")
         return inputs, components, names
 
-    def fit(self, dataset: Dataset) -> CBLM:
-        """Learn observation categories and the counted A, B, C, π between components.
+    #: ``behavior_`` of demonstrations that do not name theirs
+    _unnamed = "complex"
 
-        Parameters
-        ----------
-        dataset
-            Demonstrations of the complex behavior whose ``behavior`` column names the
-            active component on every row.
-        """
+    def _fit_setup(self, dataset: Any) -> tuple[tuple[str, ...], Any]:
+        """Fit step 1: the parameters, the inputs and the components."""
         inputs, components, names = self._checked(getattr(dataset, "sensor_channels", None))
-        if not isinstance(dataset, Dataset):
-            raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        return inputs, (components, names)
+
+    def _fit_rows(self, dataset: Dataset, inputs: tuple[str, ...], context: Any) -> tuple[Any, Any]:
+        """Fit step 2: the nominal demonstrations, each row tagged with its component."""
+        components, names = context
         dataset, states = _nominal_tagged(dataset, names)
-        pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
-        x = pipeline.transform(dataset)
+        return dataset, (components, names, states)
+
+    def _fit_learn(
+        self,
+        dataset: Dataset,
+        x: np.ndarray,
+        inputs: tuple[str, ...],
+        pipeline: SignalPipeline,
+        context: Any,
+    ) -> None:
+        """Fit step 4: observation categories, the counted A, B, C, π between components,
+        and the commands (scales, largest step, the pause at a switch)."""
+        components, names, states = context
         lengths = dataset.lengths
         overrides = {
             "rho": float(self.observation_vigilance),
@@ -253,12 +264,8 @@ class CBLM(LearnedBehavior):
             smoothing=self.smoothing,
             path_self_loops=cast(PathSelfLoops, self.path_self_loops),
         ).fit(states, obs.labels_, lengths)
-        raw = dataset.columns(inputs)
-        finals = dataset.offsets[1:] - 1
-        self.inputs_ = inputs
         self.components_ = components
         self.names_ = names
-        self.pipeline_ = pipeline
         self.observations_ = obs
         self.__dict__.pop("_latest_physical", None)  # cache of category_values
         self.hmm_ = hmm
@@ -283,7 +290,19 @@ class CBLM(LearnedBehavior):
             lengths,
             scales if len(set(units)) > 1 else self.command_scale_,
         )
-        self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
+
+    def _fit_finish(
+        self,
+        dataset: Dataset,
+        x: np.ndarray,
+        inputs: tuple[str, ...],
+        raw: np.ndarray,
+        finals: np.ndarray,
+        context: Any,
+    ) -> None:
+        """Fit step 6: the default goal, the step limit, and what each component does
+        (``effects_``) and where it starts (``reach_``)."""
+        components, _, states = context
         # the behavior's declared goal (the dataset's ``goal``, from its spec: grasp's arm
         # up and object held) on the inputs; without one, the data contract's angle and
         # distance 0 among them
@@ -295,17 +314,13 @@ class CBLM(LearnedBehavior):
         self.default_goal_ = declared or {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
         if not self.default_goal_:
             self.default_goal_ = {inputs[0]: self.rest_values_[inputs[0]]}
+        lengths = dataset.lengths
         self.max_steps_ = int(
             max(1000, 2 * int(lengths.max()), sum(c.max_steps_ for c in components))
         )
         wraps = [self.channel_spec(c).wraps for c in inputs]
         self.effects_ = _effects(states, raw, lengths, len(components), wraps)
-        self.reach_: np.ndarray | None = _reach(states, raw, lengths, len(components), wraps)
-        self.train_data_: str | None = None  # set by the command line to the data file
-        self._record_provenance(dataset)
-        self.behavior_ = str(dataset.metadata.get("behavior", "complex"))
-        self.updates_: list[dict[str, Any]] = []  # add_component's records
-        return self
+        self.reach_ = _reach(states, raw, lengths, len(components), wraps)
 
     # ----------------------------------------------------------- add_component
     def add_component(

@@ -320,30 +320,32 @@ class SBLM(LearnedBehavior):
         return inputs
 
     # --------------------------------------------------------------------- fit
-    def fit(self, dataset: Dataset) -> SBLM:
-        """Learn primitives, observations, the Behavior-HMM and the generators.
+    #: ``behavior_`` of demonstrations that do not name theirs
+    _unnamed = "behavior"
 
-        Parameters
-        ----------
-        dataset
-            Demonstrations of one behavior (every episode from rest to the goal).
-
-        Returns
-        -------
-        SBLM
-            ``self``.
-        """
+    def _fit_setup(self, dataset: Any) -> tuple[tuple[str, ...], Any]:
+        """Fit step 1: the parameters, and the inputs among the dataset's channels."""
         self.check_params()
-        inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
-        if not isinstance(dataset, Dataset):
-            raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        return self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS)), None
+
+    def _fit_rows(self, dataset: Dataset, inputs: tuple[str, ...], context: Any) -> tuple[Any, Any]:
+        """Fit step 2: the nominal demonstrations, and the corrective ones it learns from."""
         dataset = (
             without_unseen_corrections(dataset, inputs)
             if self.learn_corrections
             else dataset.subset(np.flatnonzero(nominal_episodes(dataset)))
         )
-        pipeline = SignalPipeline.for_dataset(dataset, inputs, self.cutoff_hz)
-        x = pipeline.transform(dataset)
+        return dataset, context
+
+    def _fit_learn(
+        self,
+        dataset: Dataset,
+        x: np.ndarray,
+        inputs: tuple[str, ...],
+        pipeline: SignalPipeline,
+        context: Any,
+    ) -> None:
+        """Fit step 4: primitives, observations, the Behavior-HMM and the generators."""
         lengths = dataset.lengths
         # Corrective demonstrations (collect --corrections) teach the generators how to
         # recover; the categories, the Behavior-HMM and the command scales come from the
@@ -401,35 +403,36 @@ class SBLM(LearnedBehavior):
             n_primitives=prim.n_categories_,
             groups=groups,
         )
-        finals = dataset.offsets[1:] - 1
-        raw = dataset.columns(inputs)
-        self.inputs_ = inputs
-        self.pipeline_ = pipeline
-        self.primitives_ = prim
         self.observations_ = obs
         self.hmm_ = hmm
         self.generators_ = gens
         self.command_scale_ = float(scaler.scale_)
         self.delta_scale_ = delta_scale
-        self._record_provenance(dataset)  # and channels_, the inputs' declarations
+        self.train_states_ = nominal_states
+        self.train_observations_ = observations
+
+    def _fit_finish(
+        self,
+        dataset: Dataset,
+        x: np.ndarray,
+        inputs: tuple[str, ...],
+        raw: np.ndarray,
+        finals: np.ndarray,
+        context: Any,
+    ) -> None:
+        """Fit step 6: the robot's response to a command, where demonstrations stop, the
+        default goal and the step limit."""
         self.command_rates_ = command_rates(
             x,
             dataset.commands,
-            lengths,
-            pipeline,
+            dataset.lengths,
+            self.pipeline_,
             [self.channel_spec(c) for c in inputs],
             wheels=self.command_channels == COMMAND_CHANNELS,
         )
-        self.rest_values_ = {c: float(np.median(raw[finals, j])) for j, c in enumerate(inputs)}
         self.stops_ = np.array(raw[finals], dtype=np.float64)
-        self.train_data_: str | None = None  # set by the command line to the data file
-        self.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
         self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
-        self.max_steps_ = int(max(500, 2 * int(lengths.max())))
-        self.train_states_ = nominal_states
-        self.train_observations_ = observations
-        self.updates_: list[dict[str, Any]] = []  # partial_fit's records
-        return self
+        self.max_steps_ = int(max(500, 2 * int(dataset.lengths.max())))
 
     # ------------------------------------------------------------- partial_fit
     def partial_fit(
