@@ -265,10 +265,17 @@ def test_refuses_motion_the_categories_never_saw(setup: dict[str, Any]) -> None:
     d, old_data = setup["dir"], setup["old_data"]
     at_object = old_data.subset(np.flatnonzero(old_data.lengths > 0)[-len(ANGLES) :])
     assert set(at_object.behavior) == {"turn"}
-    turn_alone = CBLM([SBLM.load(d / "turn.bhmm")]).fit(at_object)
+    # its categories told to follow the distance at its rounding's rate: refused
+    tiny = {"dcm_scale": [1e-7, 0.05]}
+    turn_alone = CBLM([SBLM.load(d / "turn.bhmm")], observation_params=tiny).fit(at_object)
     with pytest.raises(ConfigError, match="barely moved distance"):
         turn_alone.add_component(SBLM.load(d / "approach.bhmm"), old_data)
     assert turn_alone.names_ == ["turn"] and turn_alone.updates_ == []
+    # by default an input the demonstrations barely move gets the scale of a still one
+    # (STILL_DCM_RATIO), so the approach that moves it can join
+    turn_alone = CBLM([SBLM.load(d / "turn.bhmm")]).fit(at_object)
+    turn_alone.add_component(SBLM.load(d / "approach.bhmm"), old_data)
+    assert turn_alone.names_ == ["turn", "approach"]
 
 
 def _errors(model: CBLM, retreat: SBLM, new: Dataset) -> list[Exception]:

@@ -160,3 +160,25 @@ def test_evaluate_and_generate_run_grasp_on_its_own_robot(grasp: SBLM, tmp_path:
     result = runner.invoke(app, ["generate", str(model), *start, "-o", str(trace)])
     assert result.exit_code == 0, result.output
     assert '"goal_reached": true' in result.output
+
+
+def test_grasp_joins_a_turn_and_approach_cblm_without_retraining(
+    composed: tuple[CBLM, Any], env: Any
+) -> None:
+    """The thesis's own 7.1 example: a CBLM of turn and approach, and grasp to integrate.
+
+    Its demonstrations never moved the arm; the categories take it as a still input, so
+    grasp joins from the turn → approach → grasp demonstrations alone (add_component)."""
+    model, tag_data = composed
+    turn, approach, grasp = model.components_
+    robot = gym.make(GRIPPER_ENV_ID)
+    around = [{"angle": float(a), "distance": d} for a in (-150, -60, 60, 150) for d in (0.2, 0.4)]
+    ta = CBLM(inputs=model.inputs_, components=[turn, approach], random_state=0).fit(
+        collect("turn-approach", around, env=robot, env_name=GRIPPER_ENV_ID)
+    )
+    grown = ta.add_component(grasp, tag_data)
+    assert grown.names_ == ["turn", "approach", "grasp"]
+    goal = {"arm": ARM_UP_DEG, "object_present": 1.0}
+    trace = run_policy(grown.policy(goal), env, start={"angle": 120.0, "distance": 0.3}, seed=0)
+    assert trace.goal_reached
+    assert env.unwrapped._observe()[1]["lifted"]

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.cobart import CobART, suggest_dcm_scale
+from behavior_hmm.cobart._similarity import DEFAULT_DCM_SCALE
 from behavior_hmm.data import DEFAULT_CUTOFF_HZ, CommandScaler, Dataset, SignalPipeline
 from behavior_hmm.errors import ConfigError, DatasetError, ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
@@ -47,6 +48,9 @@ GOAL_CHANNELS = ("angle", "distance")
 #: CobART's ``"auto"`` DCM scale) than the CBLM's own demonstrations moved it: the
 #: observation categories, whose DCM scale stays, would split every new window apart.
 DCM_SCALE_RATIO = 100.0
+#: An input whose automatic DCM scale is below this share of the largest one counts as
+#: never moving in a CBLM's demonstrations (it gets ``DEFAULT_DCM_SCALE``).
+STILL_DCM_RATIO = 1e-3
 
 
 def _component_name(model: Any) -> str:
@@ -255,6 +259,14 @@ class CBLM(LearnedBehavior):
             "rho": float(self.observation_vigilance),
             **dict(self.observation_params or {}),
         }
+        if overrides.get("dcm_scale", "auto") == "auto":
+            # an input the demonstrations barely move (a gripper robot's arm while it turns
+            # and approaches: servo jitter, 1e-6 per step) gets the scale of one that never
+            # moves, so a component added later that moves it can join (add_component)
+            scale = suggest_dcm_scale(x, lengths)
+            still = scale < STILL_DCM_RATIO * scale.max()
+            if still.any():
+                overrides["dcm_scale"] = np.where(still, DEFAULT_DCM_SCALE, scale).tolist()
         obs = CobART.observations(**overrides).fit(x, lengths)
         obs = obs.compacted(x, lengths)
         hmm = BehaviorHMM(
@@ -303,14 +315,9 @@ class CBLM(LearnedBehavior):
         """Fit step 6: the default goal, the step limit, and what each component does
         (``effects_``) and where it starts (``reach_``)."""
         components, _, states = context
-        # the behavior's declared goal (the dataset's ``goal``, from its spec: grasp's arm
-        # up and object held) on the inputs; without one, the data contract's angle and
-        # distance 0 among them
-        declared = {
-            str(c): float(v)
-            for c, v in (dataset.metadata.get("goal") or {}).items()
-            if c in inputs and self.channel_spec(str(c)).tolerance is not None
-        }
+        # the behavior's declared goal on the inputs; without one, the data contract's
+        # angle and distance 0 among them
+        declared = self._declared_goal(dataset, inputs)
         self.default_goal_ = declared or {c: 0.0 for c in GOAL_CHANNELS if c in inputs}
         if not self.default_goal_:
             self.default_goal_ = {inputs[0]: self.rest_values_[inputs[0]]}
@@ -321,6 +328,15 @@ class CBLM(LearnedBehavior):
         wraps = [self.channel_spec(c).wraps for c in inputs]
         self.effects_ = _effects(states, raw, lengths, len(components), wraps)
         self.reach_ = _reach(states, raw, lengths, len(components), wraps)
+
+    def _declared_goal(self, dataset: Dataset, inputs: Sequence[str]) -> dict[str, float]:
+        """The dataset's declared goal (``goal`` metadata, from the behavior's spec: grasp's
+        arm up and object held) on the inputs that can be goals; empty without one."""
+        return {
+            str(c): float(v)
+            for c, v in (dataset.metadata.get("goal") or {}).items()
+            if c in inputs and self.channel_spec(str(c)).tolerance is not None
+        }
 
     # ----------------------------------------------------------- add_component
     def add_component(
@@ -355,8 +371,9 @@ class CBLM(LearnedBehavior):
           so a component's mean effect is kept as the fit learned it, even when the new
           demonstrations run that component too.
         * ``rest_values_`` (the median of the old demonstrations' final readings, which
-          are not stored) and ``default_goal_`` (the fitted demonstrations' declared
-          goal).
+          are not stored) and ``default_goal_`` (the fitted behavior's: the old task runs
+          without a goal as before; give the new behavior's, e.g. grasp joining turn &
+          approach: ``goal={"arm": 80, "object_present": 1}``).
 
         What moves:
 
