@@ -147,7 +147,8 @@ def test_evaluate_and_generate_run_grasp_on_its_own_robot(grasp: SBLM, tmp_path:
     model = tmp_path / "grasp.bhmm"
     grasp.save(model)
     starts = tmp_path / "starts.csv"
-    starts.write_text("angle,distance\n-2,0.003\n1,0.008\n")
+    # a row may give a goal on any of the model's inputs (here the arm's)
+    starts.write_text("angle,distance,goal_arm\n-2,0.003,80\n1,0.008,80\n")
     runner = CliRunner()
     out = tmp_path / "eval.json"
     result = runner.invoke(

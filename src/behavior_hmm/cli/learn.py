@@ -583,8 +583,10 @@ def evaluate(
             teacher_object = load_teacher(teacher, robot, kwargs)
     else:
         warn_provenance(model, robot, robot_name)
+        from behavior_hmm.runtime import Robot
+
         chosen = (
-            read_starts(starts, math.inf)
+            read_starts(starts, math.inf, channels=Robot(robot).start_channels, goals=model.inputs_)
             if starts is not None
             else scaled_starts(test_starts(model.behavior_), robot)
         )

@@ -50,12 +50,15 @@ def read_starts(
     path: str | Path,
     max_distance: float = ARENA_MAX_DISTANCE,
     channels: Sequence[str] | None = None,
+    goals: Sequence[str] = (),
 ) -> list[Start]:
     """Read a starts CSV with columns ``angle`` and/or ``distance`` (and ``goal_<channel>``).
 
     ``max_distance`` (m): the farthest start allowed (our arena's by default; another
     robot's, ``--env``, may be larger). ``channels``: a robot's start channels (contract
     version 2, e.g. ``x, y``): the columns are then those and ``goal_<channel>``.
+    ``goals``: more channels a row may give a goal on (``goal_<channel>``: a model's
+    inputs, e.g. a grasp's ``goal_arm``).
 
     The file is read as every user file is (:func:`behavior_hmm._safe_read.read_text`):
     a regular file (a FIFO or a device is refused unopened) of UTF-8 text, at most 4 MiB,
@@ -77,7 +80,7 @@ def read_starts(
             fields = [f.strip() for f in (reader.fieldnames or [])]
             names = ["angle", "distance"] if channels is None else list(channels)
             expected = " and/or ".join(names) if len(names) <= 2 else ", ".join(names)
-            allowed = {*names, *(f"goal_{c}" for c in names)}
+            allowed = {*names, *(f"goal_{c}" for c in (*names, *goals))}
             if not fields:
                 raise DatasetError(f"empty starts file (expected columns {expected})", file=file)
             repeated = [f for i, f in enumerate(fields) if f in fields[:i]]
