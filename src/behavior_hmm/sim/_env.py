@@ -21,7 +21,7 @@ from behavior_hmm.data._channels import (
 from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.sim._kinematic import KinematicBackend
 from behavior_hmm.sim._mujoco import MujocoBackend
-from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes
+from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes, reset_options
 from behavior_hmm.sim._params import RobotParams
 from behavior_hmm.sim._render import TopDownRenderer
 
@@ -216,12 +216,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
     @property
     def robot_spec(self) -> dict[str, float]:
         """Wheel radius (m), track width (m) and top wheel speed (rad/s): the contract's."""
-        p = self.params
-        return {
-            "wheel_radius": p.wheel_radius,
-            "track_width": p.axle_track,
-            "max_wheel_speed": p.max_wheel_speed,
-        }
+        return self.params.robot_spec
 
     @property
     def body_radius(self) -> float:
@@ -265,15 +260,7 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
     def _parse_options(
         self, options: Mapping[str, Any] | None
     ) -> tuple[float, float, float, dict[int, list[tuple[float, float]]]]:
-        options = {} if options is None else options
-        if not isinstance(options, Mapping):
-            raise ConfigError(f"reset options must be a dict, got {type(options).__name__}")
-        unknown = sorted(str(k) for k in options if k not in _RESET_OPTIONS)
-        if unknown:
-            raise ConfigError(
-                f"unknown reset option(s): {', '.join(unknown)}; "
-                f"expected some of {', '.join(_RESET_OPTIONS)}"
-            )
+        options = reset_options(options, _RESET_OPTIONS)
         randomize = options.get("random", False)
         if not isinstance(randomize, bool | np.bool_):
             raise ConfigError(f"random option must be True or False, got {randomize!r}")

@@ -45,7 +45,7 @@ from behavior_hmm.data._channels import (
 from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.sim._env import wrap_degrees
 from behavior_hmm.sim._mujoco import set_wheel_motors
-from behavior_hmm.sim._options import check_noise, number, parse_pushes
+from behavior_hmm.sim._options import check_noise, number, parse_pushes, reset_options
 from behavior_hmm.sim._params import RobotParams
 
 #: The MJCF model shipped with the package.
@@ -194,12 +194,7 @@ class KheperaGripperEnv(gymnasium.Env[Obs, NDArray[np.float64]]):
     @property
     def robot_spec(self) -> dict[str, float]:
         """Wheel radius (m), track width (m) and top wheel speed (rad/s)."""
-        p = self.params
-        return {
-            "wheel_radius": p.wheel_radius,
-            "track_width": p.axle_track,
-            "max_wheel_speed": p.max_wheel_speed,
-        }
+        return self.params.robot_spec
 
     @property
     def body_radius(self) -> float:
@@ -312,15 +307,7 @@ class KheperaGripperEnv(gymnasium.Env[Obs, NDArray[np.float64]]):
         mujoco.mj_forward(self.model, self.data)
 
     def _parse_options(self, options: Mapping[str, Any] | None) -> tuple[Any, ...]:
-        options = {} if options is None else options
-        if not isinstance(options, Mapping):
-            raise ConfigError(f"reset options must be a dict, got {type(options).__name__}")
-        unknown = sorted(str(k) for k in options if k not in _RESET_OPTIONS)
-        if unknown:
-            raise ConfigError(
-                f"unknown reset option(s): {', '.join(unknown)}; "
-                f"expected some of {', '.join(_RESET_OPTIONS)}"
-            )
+        options = reset_options(options, _RESET_OPTIONS)
         randomize = bool(options.get("random", False))
         draw = self.np_random.uniform
         angle = (

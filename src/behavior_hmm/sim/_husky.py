@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from behavior_hmm.data._channels import CONTROL_PERIOD, SENSOR_CHANNELS
 from behavior_hmm.data._units import wrap_degree
 from behavior_hmm.errors import ConfigError, SimulationError
-from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes
+from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes, reset_options
 
 #: Sensor channels of the observation ``Dict``, in canonical order.
 CHANNELS: Final[tuple[str, ...]] = SENSOR_CHANNELS
@@ -465,15 +465,7 @@ class HuskyEnv(gymnasium.Env[dict[str, Any], Action]):
     def _parse_options(
         self, options: Mapping[str, Any] | None
     ) -> tuple[float, float, float, dict[int, list[tuple[float, float]]]]:
-        options = {} if options is None else options
-        if not isinstance(options, Mapping):
-            raise ConfigError(f"reset options must be a dict, got {type(options).__name__}")
-        unknown = sorted(str(k) for k in options if k not in _RESET_OPTIONS)
-        if unknown:
-            raise ConfigError(
-                f"unknown reset option(s): {', '.join(unknown)}; "
-                f"expected some of {', '.join(_RESET_OPTIONS)}"
-            )
+        options = reset_options(options, _RESET_OPTIONS)
         angle = number(options.get("angle", DEFAULT_START["angle"]), "start angle")
         distance = number(options.get("distance", DEFAULT_START["distance"]), "start distance")
         if not 0.0 <= distance <= MAX_START_DISTANCE:

@@ -14,6 +14,19 @@ from behavior_hmm.errors import ConfigError
 PUSH_KEYS: Final[tuple[str, ...]] = ("step", "angle", "distance")
 
 
+def reset_options(options: Mapping[str, Any] | None, known: Sequence[str]) -> Mapping[str, Any]:
+    """``reset``'s options (``{}`` for None), refusing a non-mapping or an unknown key."""
+    options = {} if options is None else options
+    if not isinstance(options, Mapping):
+        raise ConfigError(f"reset options must be a dict, got {type(options).__name__}")
+    unknown = sorted(str(k) for k in options if k not in known)
+    if unknown:
+        raise ConfigError(
+            f"unknown reset option(s): {', '.join(unknown)}; expected some of {', '.join(known)}"
+        )
+    return options
+
+
 def number(value: object, what: str) -> float:
     """``value`` as a finite float, or a ConfigError naming ``what``."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):

@@ -109,6 +109,16 @@ class RobotParams:
         """Centre-to-centre distance (m) at which the chassis touches the object."""
         return self.body_radius + self.object_radius
 
+    @property
+    def robot_spec(self) -> dict[str, float]:
+        """The robot contract's ``robot_spec``: wheel radius (m), track width (m), top
+        wheel speed (rad/s)."""
+        return {
+            "wheel_radius": self.wheel_radius,
+            "track_width": self.axle_track,
+            "max_wheel_speed": self.max_wheel_speed,
+        }
+
     def to_dict(self) -> dict[str, float]:
         """JSON-safe ``{field: value}`` (stored in dataset and model metadata)."""
         return {f.name: float(getattr(self, f.name)) for f in dataclasses.fields(self)}
