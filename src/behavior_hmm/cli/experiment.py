@@ -567,13 +567,7 @@ def experiment_incremental(
 def experiment_grasp(
     out: OutFolder = Path("results/grasp"),
     seed: SeedOption = 0,
-    seeds: Annotated[
-        int,
-        typer.Option(
-            "--seeds",
-            help="Train K sets of models (seeds SEED..SEED+K-1) and report mean ± 95 % interval",
-        ),
-    ] = 5,
+    seeds: SeedsOption = 5,
     preset: PresetOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,

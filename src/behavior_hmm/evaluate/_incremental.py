@@ -497,6 +497,26 @@ class _Scheme:
     def learn(self, k: int) -> None:
         raise NotImplementedError
 
+    def _reference_alone(
+        self, sblms: Mapping[str, Any], shared: Callable[[int, str], bool]
+    ) -> tuple[list[float], list[str]]:
+        """FWT's reference: each task's own score (the diagonal), except a complex task
+        the scheme learned together with others (``shared(i, name)``): a CBLM over its
+        components (``sblms``) fitted on its demonstrations alone, scored."""
+        from behavior_hmm.teach import behavior_spec
+
+        ctx = self.ctx
+        reference = np.diag(self.r).copy()
+        how = []
+        for i, name in enumerate(ctx.tasks):
+            if shared(i, name):
+                parts = [sblms[c] for c in behavior_spec(name).components]
+                reference[i] = ctx.score(ctx.cblm(parts, ctx.data[name]), name)[0]
+                how.append("CBLM over its components fit on its demonstrations alone")
+            else:
+                how.append("the stage's own model (trained alone)")
+        return reference.tolist(), how
+
     def model(self, name: str) -> Any:
         raise NotImplementedError
 
@@ -579,19 +599,7 @@ class _Incremental(_Scheme):
         return self.sblms[name]
 
     def reference(self) -> tuple[list[float], list[str]]:
-        from behavior_hmm.teach import behavior_spec
-
-        ctx = self.ctx
-        reference = np.diag(self.r).copy()
-        how = []
-        for i, name in enumerate(ctx.tasks):
-            if self.grown_by_add[i]:
-                parts = [self.sblms[c] for c in behavior_spec(name).components]
-                reference[i] = ctx.score(ctx.cblm(parts, ctx.data[name]), name)[0]
-                how.append("CBLM over its components fit on its demonstrations alone")
-            else:
-                how.append("the stage's own model (trained alone)")
-        return reference.tolist(), how
+        return self._reference_alone(self.sblms, lambda i, _: bool(self.grown_by_add[i]))
 
 
 class _FullRefit(_Scheme):
@@ -625,21 +633,14 @@ class _FullRefit(_Scheme):
         return self.cblm if self.ctx.kinds[name] == "complex" else self.sblms[name]
 
     def reference(self) -> tuple[list[float], list[str]]:
-        from behavior_hmm.teach import behavior_spec
+        kinds = self.ctx.kinds
 
-        ctx = self.ctx
-        reference = np.diag(self.r).copy()
-        how = []
-        for i, name in enumerate(ctx.tasks):
-            earlier = [t for t in ctx.tasks[:i] if ctx.kinds[t] == "complex"]
-            if ctx.kinds[name] == "complex" and earlier:
-                # the refit SBLMs are those trained alone (same data, same seed)
-                parts = [self.sblms[c] for c in behavior_spec(name).components]
-                reference[i] = ctx.score(ctx.cblm(parts, ctx.data[name]), name)[0]
-                how.append("CBLM over its components fit on its demonstrations alone")
-            else:
-                how.append("the stage's own model (trained alone)")
-        return reference.tolist(), how
+        def shared(i: int, name: str) -> bool:  # learned with earlier complex tasks
+            earlier = [t for t in self.ctx.tasks[:i] if kinds[t] == "complex"]
+            return kinds[name] == "complex" and bool(earlier)
+
+        # the refit SBLMs are those trained alone (same data, same seed)
+        return self._reference_alone(self.sblms, shared)
 
 
 class _FineTunedBC(_Scheme):

@@ -836,6 +836,16 @@ def _handover_cycles(
     return int(np.median(pauses)) if pauses else 0
 
 
+def _magnitudes(raw: np.ndarray, wraps: Sequence[bool]) -> np.ndarray:
+    """``raw`` as float64 with each wrapping channel (an angle) replaced by its magnitude:
+    a turn shrinks the bearing from either side."""
+    values = np.array(raw, dtype=np.float64)
+    for j, wrapping in enumerate(wraps):
+        if wrapping:
+            values[:, j] = np.abs(values[:, j])
+    return values
+
+
 def _reach(
     states: np.ndarray,
     raw: np.ndarray,
@@ -847,10 +857,7 @@ def _reach(
     ``|x|`` for a wrapping channel, as in :func:`_effects`) over the rows on which the
     demonstrations switch to component ``k`` (an episode's first row included); NaN for a
     component that never runs."""
-    values = np.array(raw, dtype=np.float64)
-    for j, wrapping in enumerate(wraps):
-        if wrapping:
-            values[:, j] = np.abs(values[:, j])
+    values = _magnitudes(raw, wraps)
     starts = np.ones(len(states), dtype=bool)
     starts[1:] = states[1:] != states[:-1]
     starts[np.cumsum(lengths)[:-1]] = True  # every episode's first row
@@ -879,10 +886,7 @@ def _effects(
     which component can still close a gap the plan has left (see
     ``models._complex_policy.ComplexPolicy``).
     """
-    values = np.array(raw, dtype=np.float64)
-    for j, wrapping in enumerate(wraps):
-        if wrapping:
-            values[:, j] = np.abs(values[:, j])
+    values = _magnitudes(raw, wraps)
     steps = np.diff(values, axis=0)
     same_episode = np.ones(len(values) - 1, dtype=bool)
     same_episode[np.cumsum(lengths)[:-1] - 1] = False

@@ -191,6 +191,44 @@ def repair_candidates(
     return order
 
 
+#: A component *needs* an input its demonstrations start it within this many tolerances of
+#: (the width of its reach); it is within its reach up to this many tolerances outside.
+REACH_WIDTH_TOLERANCES = 2.0
+REACH_MARGIN_TOLERANCES = 0.5
+
+
+class _Reach:
+    """Where a component starts on one input, beside the current reading (reach rule).
+
+    ``value`` is the reading (its magnitude for an angle, as ``reach`` is); ``None`` from
+    :meth:`of` when the input has no tolerance or the component never starts.
+    """
+
+    def __init__(self, lo: float, hi: float, tolerance: float, value: float) -> None:
+        self.lo, self.hi, self.tolerance, self.value = lo, hi, tolerance, value
+
+    @classmethod
+    def of(
+        cls, bounds: FloatArray, channel: str, values: Mapping[str, float], spec: ChannelSpec
+    ) -> _Reach | None:
+        lo, hi = (float(v) for v in bounds)
+        if spec.tolerance is None or not (np.isfinite(lo) and np.isfinite(hi)):
+            return None
+        value = abs(values[channel]) if spec.wraps else values[channel]
+        return cls(lo, hi, float(spec.tolerance), value)
+
+    @property
+    def narrow(self) -> bool:
+        """The component starts at one place on this input: it needs it."""
+        return self.hi - self.lo <= REACH_WIDTH_TOLERANCES * self.tolerance
+
+    @property
+    def inside(self) -> bool:
+        """The reading lies within the reach's margin."""
+        margin = REACH_MARGIN_TOLERANCES * self.tolerance
+        return self.lo - margin <= self.value <= self.hi + margin
+
+
 def reach_fix(
     comp: int,
     values: Mapping[str, float],
@@ -233,19 +271,15 @@ def reach_fix(
         component can bring it there.
     """
     for j, channel in enumerate(channels):
-        tolerance = specs[channel].tolerance
-        lo, hi = reach[comp, j]
-        if tolerance is None or not (np.isfinite(lo) and np.isfinite(hi)):
-            continue
-        if hi - lo > 2.0 * tolerance:
+        where = _Reach.of(reach[comp, j], channel, values, specs[channel])
+        if where is None or not where.narrow:
             continue  # it starts anywhere on this channel: it does not need it
         scale = float(np.max(np.abs(effects[:, j])))
         if abs(effects[comp, j]) > 0.1 * scale:
             continue  # it moves this channel itself
-        value = abs(values[channel]) if specs[channel].wraps else values[channel]
-        if lo - 0.5 * tolerance <= value <= hi + 0.5 * tolerance:
+        if where.inside:
             continue
-        gain = (1.0 if value < lo else -1.0) * effects[:, j]
+        gain = (1.0 if where.value < where.lo else -1.0) * effects[:, j]
         for k in np.argsort(-gain, kind="stable").tolist():
             if (
                 k != comp
@@ -278,14 +312,14 @@ def not_begun(
     """
     placed = False
     for j, channel in enumerate(channels):
-        tolerance = specs[channel].tolerance
-        lo, hi = reach[comp, j]
-        if channel not in goal_channels[comp] or tolerance is None or not np.isfinite(lo):
+        if channel not in goal_channels[comp]:
             continue
-        value = abs(values[channel]) if specs[channel].wraps else values[channel]
-        if not lo - 0.5 * tolerance <= value <= hi + 0.5 * tolerance:
+        where = _Reach.of(reach[comp, j], channel, values, specs[channel])
+        if where is None:
+            continue
+        if not where.inside:
             return False
-        placed = placed or hi - lo <= 2.0 * tolerance
+        placed = placed or where.narrow
     return placed
 
 

@@ -22,7 +22,7 @@ from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.sim._kinematic import KinematicBackend
 from behavior_hmm.sim._mujoco import MujocoBackend
 from behavior_hmm.sim._options import check_noise, number, parse_action, parse_pushes, reset_options
-from behavior_hmm.sim._params import RobotParams
+from behavior_hmm.sim._params import ParamsGeometry, RobotParams
 from behavior_hmm.sim._render import TopDownRenderer
 
 #: Backend names accepted by :class:`KheperaEnv`.
@@ -44,7 +44,7 @@ def wrap_degrees(angle: float) -> float:
     return 180.0 if wrapped == -180.0 else wrapped
 
 
-class KheperaEnv(gymnasium.Env[Obs, Obs]):
+class KheperaEnv(ParamsGeometry, gymnasium.Env[Obs, Obs]):
     """A differential-drive robot and one round object; sensors as in the thesis (§6).
 
     Observation (float64, shape (4,), order ``SENSOR_CHANNELS``): ``distance`` (m, from
@@ -207,26 +207,6 @@ class KheperaEnv(gymnasium.Env[Obs, Obs]):
     #: What each entry of the observation array is (docs/robots.md; the registered ids
     #: give the same channels as a ``spaces.Dict`` through :class:`ChannelDict`).
     sensor_channels: tuple[str, ...] = SENSOR_CHANNELS
-
-    @property
-    def control_period(self) -> float:
-        """Seconds per step (the robot contract's ``control_period``)."""
-        return float(self.params.control_period)
-
-    @property
-    def robot_spec(self) -> dict[str, float]:
-        """Wheel radius (m), track width (m) and top wheel speed (rad/s): the contract's."""
-        return self.params.robot_spec
-
-    @property
-    def body_radius(self) -> float:
-        """Radius (m) of the round chassis (for plots and videos)."""
-        return float(self.params.body_radius)
-
-    @property
-    def object_radius(self) -> float:
-        """Radius (m) of the object at the origin (for plots and videos)."""
-        return float(self.params.object_radius)
 
     @property
     def channel_ranges(self) -> dict[str, tuple[float, float]]:

@@ -46,7 +46,7 @@ from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.sim._env import wrap_degrees
 from behavior_hmm.sim._mujoco import set_wheel_motors
 from behavior_hmm.sim._options import check_noise, number, parse_pushes, reset_options
-from behavior_hmm.sim._params import RobotParams
+from behavior_hmm.sim._params import ParamsGeometry, RobotParams
 
 #: The MJCF model shipped with the package.
 GRIPPER_XML = resources.files("behavior_hmm.sim").joinpath("assets", "khepera_gripper.xml")
@@ -79,7 +79,7 @@ def _chassis_params() -> RobotParams:
     return RobotParams(object_radius=0.0075)
 
 
-class KheperaGripperEnv(gymnasium.Env[Obs, NDArray[np.float64]]):
+class KheperaGripperEnv(ParamsGeometry, gymnasium.Env[Obs, NDArray[np.float64]]):
     """The Khepera-like robot with a gripper turret and a 1.5 cm cylinder to grasp.
 
     Observation: a ``spaces.Dict`` of ``(1,)`` float64 arrays by channel (:data:`SENSORS`):
@@ -185,26 +185,8 @@ class KheperaGripperEnv(gymnasium.Env[Obs, NDArray[np.float64]]):
         self._commands = np.zeros(len(COMMANDS))
         self._z_rest = self._settle()
 
-    # ------------------------------------------------------------------ robot contract
-    @property
-    def control_period(self) -> float:
-        """Seconds per step."""
-        return float(self._dt)
-
-    @property
-    def robot_spec(self) -> dict[str, float]:
-        """Wheel radius (m), track width (m) and top wheel speed (rad/s)."""
-        return self.params.robot_spec
-
-    @property
-    def body_radius(self) -> float:
-        """Radius (m) of the round chassis (plots, videos)."""
-        return float(self.params.body_radius)
-
-    @property
-    def object_radius(self) -> float:
-        """Radius (m) of the graspable cylinder (plots, videos)."""
-        return float(self.params.object_radius)
+    # robot contract: control_period, robot_spec, body_radius, object_radius come from
+    # ParamsGeometry; the channels are the class attributes above
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(

@@ -142,3 +142,32 @@ class RobotParams:
                 f"expected some of {', '.join(sorted(known))}"
             )
         return cls(**dict(data))
+
+
+class ParamsGeometry:
+    """The robot contract's timing and geometry of an env built from ``self.params``.
+
+    Our Khepera-like envs (with or without the gripper) hand these out alike.
+    """
+
+    params: RobotParams
+
+    @property
+    def control_period(self) -> float:
+        """Seconds per step (the robot contract's ``control_period``)."""
+        return float(self.params.control_period)
+
+    @property
+    def robot_spec(self) -> dict[str, float]:
+        """Wheel radius (m), track width (m) and top wheel speed (rad/s): the contract's."""
+        return self.params.robot_spec
+
+    @property
+    def body_radius(self) -> float:
+        """Radius (m) of the round chassis (for plots and videos)."""
+        return float(self.params.body_radius)
+
+    @property
+    def object_radius(self) -> float:
+        """Radius (m) of the object the robot faces (for plots and videos)."""
+        return float(self.params.object_radius)

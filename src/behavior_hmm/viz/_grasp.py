@@ -12,7 +12,6 @@ import gymnasium
 import numpy as np
 
 from behavior_hmm._atomic import atomic_write_with
-from behavior_hmm.errors import ConfigError
 from behavior_hmm.evaluate._grasp import COMPOSED, check_targets, gripper_env
 from behavior_hmm.viz._reports import write_results_files
 from behavior_hmm.viz._traces import _save, new_figure
@@ -391,6 +390,7 @@ def write_grasp_videos(
     import mujoco
 
     from behavior_hmm.teach import Teacher, complete_start, test_starts
+    from behavior_hmm.viz._mujoco_video import offscreen_renderer
     from behavior_hmm.viz._video import _import_or_config_error
 
     ffmpeg = _import_or_config_error("imageio_ffmpeg")
@@ -400,15 +400,7 @@ def write_grasp_videos(
     written: dict[str, Path] = {}
     for kind in ("Training", "Generated"):
         env = gripper_env()
-        try:
-            renderer = mujoco.Renderer(env.unwrapped.model, height=size[1], width=size[0])
-        except Exception as err:  # no display, no EGL/OSMesa: say so in one line
-            gl = os.environ.get("MUJOCO_GL", "unset")
-            reason = str(err).splitlines()[0] if str(err) else type(err).__name__
-            raise ConfigError(
-                f"MuJoCo cannot render offscreen here (MUJOCO_GL={gl}: {reason}); set "
-                "MUJOCO_GL=egl or osmesa, or leave out --videos"
-            ) from None
+        renderer = offscreen_renderer(env.unwrapped.model, size, "leave out --videos")
         camera = mujoco.MjvCamera()
         camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         camera.elevation = -30.0

@@ -30,6 +30,27 @@ from behavior_hmm.viz._video import (
 VIDEO_BACKENDS = ("matplotlib", "mujoco")
 
 
+def offscreen_renderer(model: Any, size: tuple[int, int], instead: str) -> Any:
+    """A ``mujoco.Renderer`` of ``model`` (``size`` = width, height in pixels).
+
+    Where MuJoCo cannot make an offscreen OpenGL context, one line says so and what to
+    set, or ``instead`` what to do (:class:`ConfigError`).
+    """
+    import mujoco
+
+    try:
+        with warnings.catch_warnings():  # GLFW warns about a missing display first
+            warnings.simplefilter("ignore")
+            return mujoco.Renderer(model, height=size[1], width=size[0])
+    except Exception as err:  # no display, no EGL/OSMesa: say so in one line
+        gl = os.environ.get("MUJOCO_GL", "unset")
+        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise ConfigError(
+            f"MuJoCo cannot render offscreen here (MUJOCO_GL={gl}: {reason}); set "
+            f"MUJOCO_GL=egl or osmesa, or {instead}"
+        ) from None
+
+
 def render_trace_mujoco(
     trace: Any,
     path: str | os.PathLike[str],
@@ -58,17 +79,7 @@ def render_trace_mujoco(
     if params is not None and not isinstance(params, RobotParams):
         raise ConfigError("--video-backend mujoco draws our Khepera-like robot only")
     scene = MujocoBackend(params or RobotParams())
-    try:
-        with warnings.catch_warnings():  # GLFW warns about a missing display first
-            warnings.simplefilter("ignore")
-            renderer = mujoco.Renderer(scene.model, height=size[1], width=size[0])
-    except Exception as err:  # no display, no EGL/OSMesa: say so in one line
-        gl = os.environ.get("MUJOCO_GL", "unset")
-        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise ConfigError(
-            f"MuJoCo cannot render offscreen here (MUJOCO_GL={gl}: {reason}); set "
-            "MUJOCO_GL=egl or osmesa, or use --video-backend matplotlib"
-        ) from None
+    renderer = offscreen_renderer(scene.model, size, "use --video-backend matplotlib")
     # a camera that follows the robot, keeping the object (at the origin) in view
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
