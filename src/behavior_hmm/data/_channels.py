@@ -257,6 +257,14 @@ _GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
     ),
 )
 
+#: Our gripper robot's own sensors and commands, in observation and action order.
+GRIPPER_SENSORS: Final[tuple[str, ...]] = tuple(
+    s.name for s in _GRIPPER_SPECS if s.kind == "sensor"
+)
+GRIPPER_COMMANDS: Final[tuple[str, ...]] = tuple(
+    s.name for s in _GRIPPER_SPECS if s.kind == "command"
+)
+
 #: Every known channel by name: the four sensors and two wheel commands of the data
 #: contract, our gripper robot's, plus any registered with :func:`register_channel`.
 CHANNELS: dict[str, ChannelSpec] = {spec.name: spec for spec in _SPECS + _GRIPPER_SPECS}

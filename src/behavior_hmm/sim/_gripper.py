@@ -38,8 +38,12 @@ from behavior_hmm.data._channels import (
     ARM_DOWN_DEG,
     ARM_UP_DEG,
     CHANNELS,
+    COMMAND_CHANNELS,
     FINGERS_CLOSED_M,
     FINGERS_OPEN_M,
+    GRIPPER_COMMANDS,
+    GRIPPER_SENSORS,
+    SENSOR_CHANNELS,
     noise_std,
 )
 from behavior_hmm.errors import ConfigError, SimulationError
@@ -52,22 +56,13 @@ from behavior_hmm.sim._params import ParamsGeometry, RobotParams
 GRIPPER_XML = resources.files("behavior_hmm.sim").joinpath("assets", "khepera_gripper.xml")
 
 #: Sensors, in observation order: the data contract's four, then the gripper's.
-SENSORS: Final[tuple[str, ...]] = (
-    "distance",
-    "linear_velocity",
-    "angle",
-    "angular_velocity",
-    "arm",
-    "fingers",
-    "object_present",
-)
+SENSORS: Final[tuple[str, ...]] = (*SENSOR_CHANNELS, *GRIPPER_SENSORS)
 #: Commands, in action order: the wheels (rad/s), the arm (deg/s), the fingers (m/s).
-COMMANDS: Final[tuple[str, ...]] = ("left", "right", "arm_speed", "finger_speed")
+COMMANDS: Final[tuple[str, ...]] = (*COMMAND_CHANNELS, *GRIPPER_COMMANDS)
 #: Height (m) the object's centre must rise above its resting height to count as lifted.
 LIFT_HEIGHT: Final[float] = 0.01
 
 _RESET_OPTIONS = ("angle", "distance", "arm", "fingers", "noise", "push", "nudge", "random")
-_FREE = 7  # qpos entries of the object's free joint (position, quaternion)
 
 Obs = dict[str, NDArray[np.float64]]
 

@@ -22,7 +22,12 @@ from typing import Any, Final
 import numpy as np
 
 from behavior_hmm.data import ANGLE_TOLERANCE_DEG, DISTANCE_TOLERANCE_M
-from behavior_hmm.data._channels import ARM_UP_DEG, CHANNELS
+from behavior_hmm.data._channels import (
+    ARM_UP_DEG,
+    CHANNELS,
+    GRIPPER_COMMANDS,
+    GRIPPER_SENSORS,
+)
 from behavior_hmm.errors import ConfigError, SimulationError
 from behavior_hmm.runtime import REQUIRED_CHANNELS, Robot, RobotSpec
 from behavior_hmm.teach._behaviors import (
@@ -192,7 +197,7 @@ class Teacher:
         self.robot = Robot(env)
         self.robot.require(REQUIRED_CHANNELS, "our teacher")
         commands = self.robot.command_channels
-        if commands[:2] != ("left", "right") or not set(commands[2:]) <= set(_GRIPPER_COMMANDS):
+        if commands[:2] != ("left", "right") or not set(commands[2:]) <= set(GRIPPER_COMMANDS):
             raise ConfigError(
                 f"our teacher drives two wheels (left, right) and our gripper's arm_speed and "
                 f"finger_speed; this robot takes {', '.join(commands)}: give your own (--teacher)"
@@ -207,8 +212,8 @@ class Teacher:
         self._dist = self.robot.channels.index("distance")
         self._angle = self.robot.channels.index("angle")
         channels, commands = self.robot.channels, self.robot.command_channels
-        self._gripper = all(c in channels for c in _GRIPPER_SENSORS) and all(
-            c in commands for c in _GRIPPER_COMMANDS
+        self._gripper = all(c in channels for c in GRIPPER_SENSORS) and all(
+            c in commands for c in GRIPPER_COMMANDS
         )
         self._arm = channels.index("arm") if self._gripper else -1
         self._fingers = channels.index("fingers") if self._gripper else -1
@@ -247,7 +252,7 @@ class Teacher:
         if not self._gripper and any(p.name in GRIPPER_PHASES for p in phases):
             raise ConfigError(
                 f"{behavior} needs a robot with our gripper (sensors "
-                f"{', '.join(_GRIPPER_SENSORS)}; commands {', '.join(_GRIPPER_COMMANDS)}), "
+                f"{', '.join(GRIPPER_SENSORS)}; commands {', '.join(GRIPPER_COMMANDS)}), "
                 f"e.g. --env {spec.env or 'behavior_hmm/KheperaGripper-v0'}"
             )
         self._disturbance = (
@@ -437,11 +442,6 @@ class Teacher:
                     f"final distance {distance_now:.4f} m, goal {goal:g} m"
                 )
 
-
-#: Our gripper's sensors and commands (behavior_hmm/KheperaGripper-v0): with them the
-#: teacher can open, lower, close and lift.
-_GRIPPER_SENSORS: Final[tuple[str, ...]] = ("arm", "fingers", "object_present")
-_GRIPPER_COMMANDS: Final[tuple[str, ...]] = ("arm_speed", "finger_speed")
 
 #: Correlation time (s) of a corrective demonstration's disturbance.
 DISTURBANCE_TIME_S: Final[float] = 0.5
