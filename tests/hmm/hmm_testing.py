@@ -5,9 +5,19 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from scipy.sparse import csr_array
 
 from behavior_hmm.hmm import BehaviorHMM
-from behavior_hmm.hmm._counting import normalize
+
+
+def sparse_arrays(name: str, counts: Any) -> dict[str, np.ndarray]:
+    """The model-file arrays ``{name}_indptr``, ``_indices``, ``_counts`` of dense counts."""
+    table = csr_array(np.asarray(counts, dtype=np.int64))  # sorted, zeros not stored
+    return {
+        f"{name}_indptr": np.asarray(table.indptr, dtype=np.int64),
+        f"{name}_indices": np.asarray(table.indices, dtype=np.int64),
+        f"{name}_counts": np.asarray(table.data, dtype=np.int64),
+    }
 
 
 def model_from_counts(
@@ -18,28 +28,31 @@ def model_from_counts(
     start: Any | None = None,
     **params: Any,
 ) -> BehaviorHMM:
-    """A fitted model whose tables are the given counts, normalized (through ``from_arrays``)."""
+    """A fitted model whose tables are the given counts, normalized by the model.
+
+    Built through ``from_arrays`` when π is the row sums of B (as counting makes it,
+    and as a model file must have it). A π of its own (to test Viterbi on any tables)
+    is not a valid model file, so that model is given its counts directly.
+    """
     A = np.asarray(A, dtype=np.int64)
     B = np.asarray(B, dtype=np.int64)
     C = np.asarray(C, dtype=np.int64)
     pi = B.sum(axis=1) if pi is None else np.asarray(pi, dtype=np.int64)
     start = pi if start is None else np.asarray(start, dtype=np.int64)
-    probe = BehaviorHMM(**params)
-    k = float(probe.smoothing)
-    zero_diag = not probe.self_transitions
-    arrays = {
-        "A": normalize(A, k, zero_diagonal=zero_diag),
-        "B": normalize(B, k, zero_diagonal=False),
-        "C": normalize(C, k, zero_diagonal=zero_diag),
-        "pi": normalize(pi, k, zero_diagonal=False),
-        "start_prob_first": normalize(start, k, zero_diagonal=False),
-        "A_counts": A,
-        "B_counts": B,
-        "C_counts": C,
-        "pi_counts": pi,
-        "start_counts": start,
-    }
-    return BehaviorHMM.from_arrays(arrays, params)
+    if np.array_equal(pi, B.sum(axis=1)):
+        arrays = {
+            **sparse_arrays("A", A),
+            **sparse_arrays("B", B),
+            **sparse_arrays("C", C),
+            "pi_counts": pi,
+            "start_counts": start,
+        }
+        return BehaviorHMM.from_arrays(arrays, params)
+    hmm = BehaviorHMM(**params)
+    hmm._validate_params()
+    tables = {"A": A, "B": csr_array(B), "C": csr_array(C), "pi": pi, "start_prob_first": start}
+    hmm._set_tables(tables)
+    return hmm
 
 
 def probs(counts: Any) -> np.ndarray:

@@ -24,11 +24,11 @@ pytestmark = pytest.mark.usefixtures("kernel")
 
 
 def _theirs(hmm: BehaviorHMM) -> object:
-    arrays = hmm.to_arrays()
+    probs = hmm.dense_probabilities()
     model = hmmlearn_hmm.CategoricalHMM(n_components=hmm.n_states_, n_features=hmm.n_observations_)
-    model.startprob_ = arrays["pi"]
-    model.transmat_ = arrays["A"]
-    model.emissionprob_ = arrays["B"]
+    model.startprob_ = probs["pi"]
+    model.transmat_ = probs["A"]
+    model.emissionprob_ = probs["B"]
     return model
 
 
@@ -43,7 +43,7 @@ def _joint(hmm: BehaviorHMM, states: np.ndarray, obs: np.ndarray) -> float:
     return float(
         hmm.log_pi_[states[0]]
         + hmm.log_A_[states[:-1], states[1:]].sum()
-        + hmm.log_B_[states, obs].sum()
+        + hmm.log_B_.toarray()[states, obs].sum()
     )
 
 

@@ -15,6 +15,7 @@ from hypothesis.extra.numpy import arrays
 import behavior_hmm.hmm._behavior_hmm as impl
 from behavior_hmm.errors import UnreachableGoalError
 from behavior_hmm.hmm import BehaviorHMM, Plan, Segment
+from behavior_hmm.hmm._plan import make_segments
 
 TURN, APPROACH, GRASP = 0, 1, 2
 O_C, O_1, O_2, O_G, O_FAR = 0, 1, 2, 3, 4  # thesis ch. 5: o_c, o1, o2, o_g; O_FAR: 70°, 0 m
@@ -58,7 +59,7 @@ def test_segments_cover_the_path_in_order() -> None:
 @given(states=st.lists(st.integers(0, 3), min_size=1, max_size=8))
 def test_segments_partition_the_states(states: list[int]) -> None:
     observations = tuple(range(10, 10 + len(states)))
-    segments = impl.make_segments(observations, tuple(states))
+    segments = make_segments(observations, tuple(states))
     rebuilt = [seg.state for seg in segments for _ in range(seg.start, seg.stop)]
     assert rebuilt == states
     assert segments[0].start == 0 and segments[-1].stop == len(states)
@@ -149,6 +150,6 @@ def test_plan_states_are_the_viterbi_optimum_of_the_path(
         achieved = (
             hmm.log_pi_[states[0]]
             + hmm.log_A_[states[:-1], states[1:]].sum()
-            + hmm.log_B_[states, obs].sum()
+            + hmm.log_B_.toarray()[states, obs].sum()
         )
         assert achieved == pytest.approx(best, abs=1e-9)

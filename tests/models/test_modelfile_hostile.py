@@ -278,7 +278,7 @@ def _npz_with(c: Corpus, *extra: Entry, without: str = "") -> bytes:
 def _npy_bomb(c: Corpus, declared: int | None) -> bytes:
     head = npy_header("<f8", (BOMB_MIB * MIB // 8,))
     size = len(head) + BOMB_MIB * MIB if declared is None else declared
-    return _npz_with(c, _bomb("hmm.A.npy", size, head), without="hmm.A")
+    return _npz_with(c, _bomb("hmm.A_counts.npy", size, head), without="hmm.A_counts")
 
 
 def _scaled(c: Corpus, name: str, factor: float) -> bytes:
@@ -396,7 +396,7 @@ def component_deflate_bomb(c: Corpus) -> bytes:
 # -- .npy members
 @case("SBLM")
 def v0_dtype_1e9_by_1e9(c: Corpus) -> bytes:
-    return with_array(c.sblm, "hmm.A", npy_header("|V0", (10**9, 10**9)))
+    return with_array(c.sblm, "hmm.A_counts", npy_header("|V0", (10**9, 10**9)))
 
 
 @case("SBLM")
@@ -422,27 +422,29 @@ def complex_dtype(c: Corpus) -> bytes:
 
 @case("SBLM")
 def npy_version_3(c: Corpus) -> bytes:
-    return with_array(c.sblm, "hmm.A", npy(c.sblm.array("hmm.A"), version=(3, 0)))
+    return with_array(c.sblm, "hmm.A_counts", npy(c.sblm.array("hmm.A_counts"), version=(3, 0)))
 
 
 @case("SBLM")
 def npy_header_of_4_gib(c: Corpus) -> bytes:
-    return with_array(c.sblm, "hmm.A", b"\x93NUMPY\x02\x00" + struct.pack("<I", 2**32 - 16) + b"{")
+    return with_array(
+        c.sblm, "hmm.A_counts", b"\x93NUMPY\x02\x00" + struct.pack("<I", 2**32 - 16) + b"{"
+    )
 
 
 @case("SBLM")
 def npy_truncated(c: Corpus) -> bytes:
-    return with_array(c.sblm, "hmm.A", c.sblm.arrays["hmm.A"][:-8])
+    return with_array(c.sblm, "hmm.A_counts", c.sblm.arrays["hmm.A_counts"][:-8])
 
 
 @case("SBLM")
 def duplicate_array(c: Corpus) -> bytes:
-    return _npz_with(c, entry("hmm.A.npy", c.sblm.arrays["hmm.A"]))
+    return _npz_with(c, entry("hmm.A_counts.npy", c.sblm.arrays["hmm.A_counts"]))
 
 
 @case("SBLM")
 def array_name_traversal(c: Corpus) -> bytes:
-    return _npz_with(c, entry("../../evil.npy", c.sblm.arrays["hmm.A"]))
+    return _npz_with(c, entry("../../evil.npy", c.sblm.arrays["hmm.A_counts"]))
 
 
 # -- model.json

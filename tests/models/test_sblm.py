@@ -12,6 +12,7 @@ import pytest
 from behavior_hmm.data import Dataset
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import SBLM
+from behavior_hmm.models._modelfile import VERSION
 
 
 def test_fit_returns_self_and_learns_attributes(turn_data: Dataset) -> None:
@@ -81,11 +82,12 @@ def test_corrupted_tampered_and_hostile_files_are_refused(turn_model: SBLM, tmp_
     arrays[len(arrays) // 2] ^= 0xFF
     _rewrite_member(good, tmp_path / "tampered.bhmm", "arrays.npz", bytes(arrays))
     # edited JSON: another version, and garbage
+    assert f'"version": {VERSION}'.encode() in header
     _rewrite_member(
         good,
         tmp_path / "version.bhmm",
         "model.json",
-        header.replace(b'"version": 1', b'"version": 9'),
+        header.replace(f'"version": {VERSION}'.encode(), b'"version": 9'),
     )
     _rewrite_member(good, tmp_path / "json.bhmm", "model.json", b"{not json")
     # an extra member

@@ -92,11 +92,11 @@ def _sparse_model(
 def _hmmlearn_model(hmm: Any) -> Any:
     from hmmlearn.hmm import CategoricalHMM
 
-    arrays = hmm.to_arrays()
+    probs = hmm.dense_probabilities()
     theirs = CategoricalHMM(n_components=hmm.n_states_, n_features=hmm.n_observations_)
-    theirs.startprob_ = arrays["pi"]
-    theirs.transmat_ = arrays["A"]
-    theirs.emissionprob_ = arrays["B"]
+    theirs.startprob_ = probs["pi"]
+    theirs.transmat_ = probs["A"]
+    theirs.emissionprob_ = probs["B"]
     return theirs
 
 
@@ -167,7 +167,7 @@ def _size(
     if _hmmc is not None:
         theirs = _hmmlearn_model(hmm)
         x = observations.reshape(-1, 1)
-        frame_log_prob = np.ascontiguousarray(hmm.log_B_[:, observations].T)
+        frame_log_prob = hmm.log_B_.columns(observations)
         start, trans = theirs.startprob_, theirs.transmat_
         fns["hmmlearn"] = lambda: theirs.decode(x, algorithm="viterbi")
         fns["hmmlearn_kernel"] = lambda: _hmmc.viterbi(start, trans, frame_log_prob)

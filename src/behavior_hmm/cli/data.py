@@ -14,6 +14,7 @@ Usage::
         --derive linear_velocity,angular_velocity -o mine.parquet
     behavior-hmm import-lerobot lerobot/turn -o mine.parquet
     behavior-hmm export-lerobot data/turn.parquet lerobot/turn
+    behavior-hmm upgrade models/old.bhmm                        # a model, to format 2
 
 Every file is checked before any work; on an error nothing is written.
 """
@@ -400,6 +401,38 @@ def inspect(
         log.info("plot: %s", png)
     if json_out is not None:
         log.info("summary: %s", json_out)
+
+
+@app.command()
+@user_errors
+def upgrade(
+    model_file: Annotated[Path, typer.Argument(help="A model file (.bhmm) of an older format")],
+    out: Annotated[
+        Path | None,
+        typer.Option("-o", "--out", help="Write the upgraded model here (default: in place)"),
+    ] = None,
+) -> None:
+    """Convert a model file to the current format, without loss.
+
+    Format 1 stored the Behavior-HMM's tables densely (an M x M table for M observation
+    categories); format 2 stores only their counts, sparsely. The probabilities follow
+    from the counts, so the upgraded model behaves exactly as the old one. A complex
+    behavior's components are upgraded with it. The file is replaced atomically (or
+    written to --out); on an error nothing is written.
+
+    Example: behavior-hmm upgrade models/turn.bhmm
+    """
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.models._upgrade import upgrade as upgrade_file
+
+    if out is not None:
+        check_outputs({"MODEL": model_file}, {"--out": out})
+    old, new = upgrade_file(model_file, out)
+    target = model_file if out is None else out
+    if old == new:
+        log.info("%s is already format %d; written as it is to %s", model_file, new, target)
+    else:
+        log.info("upgraded %s from format %d to %d: %s", model_file, old, new, target)
 
 
 def _model_summary(path: Path) -> dict[str, Any]:

@@ -15,6 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import csr_array
 
 from behavior_hmm._estimator import Estimator
 from behavior_hmm.errors import (
@@ -27,7 +28,7 @@ from behavior_hmm.errors import (
 from behavior_hmm.hmm._counting import (
     Counting,
     add_counts,
-    add_transitions,
+    add_tables,
     count_density,
     count_emissions,
     count_transitions,
@@ -35,15 +36,9 @@ from behavior_hmm.hmm._counting import (
     normalize,
     safe_log,
 )
-from behavior_hmm.hmm._paths import (
-    GoalTree,
-    PathSelfLoops,
-    edge_costs,
-    goal_tree,
-    reversed_graph,
-    walk,
-)
-from behavior_hmm.hmm._plan import Plan, make_segments
+from behavior_hmm.hmm._paths import GoalTree, PathSelfLoops, goal_tree, path_graph, walk
+from behavior_hmm.hmm._plan import Plan
+from behavior_hmm.hmm._tables import LogTable, canonical, check_counts, normalize_sparse
 from behavior_hmm.hmm._viterbi import TreeViterbi, emission_decode, viterbi_log
 
 OnImpossible = Literal["raise", "emissions"]
@@ -53,16 +48,14 @@ _COUNTINGS = ("changes", "steps")
 _SELF_LOOP_RULES = ("drop", "keep")
 _ON_IMPOSSIBLE = ("raise", "emissions")
 
-# probability array -> (its count array, ndim, axes sizes as ("N"|"M", ...))
-_TABLES: dict[str, tuple[str, tuple[str, ...]]] = {
-    "A": ("A_counts", ("N", "N")),
-    "B": ("B_counts", ("N", "M")),
-    "C": ("C_counts", ("M", "M")),
-    "pi": ("pi_counts", ("N",)),
-    "start_prob_first": ("start_counts", ("N",)),
-}
-_ROW_SUM_TOL = 1e-6
-_MATCH_TOL = 1e-9
+#: The count tables a model file holds in compressed sparse rows, with their columns'
+#: axis: ``{name}_indptr``, ``{name}_indices`` and ``{name}_counts`` each.
+_SPARSE_TABLES: dict[str, str] = {"A": "N", "B": "M", "C": "M"}
+#: The count vectors a model file holds densely, shape (N,).
+_VECTORS = ("pi_counts", "start_counts")
+#: Most states a model may have: A is held dense (N × N), and at this size one of its
+#: tables is 64 MiB. Observation categories have no such bound: B and C are sparse.
+MAX_DENSE_STATES = 2896
 
 
 class BehaviorHMM(Estimator):
@@ -202,8 +195,7 @@ class BehaviorHMM(Estimator):
         s, o, lens = _checked_data(states, observations, lengths)
         n = _n_labels(s, self.n_states, "states", "n_states")
         m = _n_labels(o, self.n_observations, "observations", "n_observations")
-        counts = self._count(s, o, lens, n, m)
-        self._set_tables(counts, {key: self._normalize(key, c) for key, c in counts.items()})
+        self._set_tables(self._count(s, o, lens, n, m))
         return self
 
     def partial_fit(
@@ -279,22 +271,15 @@ class BehaviorHMM(Estimator):
                 "be added up; call fit to count everything again"
             )
         new = self._count(s, o, lens, n, m)
-        old = {
-            "A": self.A_counts_,
-            "B": self.B_counts_,
-            "C": self.C_counts_,
-            "pi": self.pi_counts_,
-            "start_prob_first": self.start_counts_,
+        transitions: dict[str, Any] = {"counting": self.counting, "self_transitions": rule[1]}
+        counts: dict[str, Any] = {
+            "A": add_tables(canonical(csr_array(self.A_counts_)), new["A"], **transitions),
+            "B": add_tables(self.B_counts_, new["B"]),
+            "C": add_tables(self.C_counts_, new["C"], **transitions),
+            "pi": add_counts(self.pi_counts_, new["pi"]),
+            "start_prob_first": add_counts(self.start_counts_, new["start_prob_first"]),
         }
-        counts: dict[str, NDArray[np.int64]] = {}
-        for key, c in new.items():
-            if key in ("A", "C"):
-                counts[key] = add_transitions(
-                    old[key], c, counting=self.counting, self_transitions=rule[1]
-                )
-            else:
-                counts[key] = add_counts(old[key], c)
-        self._set_tables(counts, {key: self._normalize(key, c) for key, c in counts.items()})
+        self._set_tables(counts)
         return self
 
     def _count(
@@ -304,8 +289,8 @@ class BehaviorHMM(Estimator):
         lens: NDArray[np.int64],
         n: int,
         m: int,
-    ) -> dict[str, NDArray[np.int64]]:
-        """Count tables of checked data, keyed like :data:`_TABLES` (n states, m categories)."""
+    ) -> dict[str, Any]:
+        """Count tables of checked data (n states, m categories): A, B, C sparse."""
         kw: dict[str, Any] = {"counting": self.counting, "self_transitions": self.self_transitions}
         return {
             "A": count_transitions(s, n, lens, **kw),
@@ -315,27 +300,25 @@ class BehaviorHMM(Estimator):
             "start_prob_first": count_density(s[episode_starts(lens)], n),
         }
 
-    def _normalize(self, key: str, counts: NDArray[np.generic]) -> NDArray[np.float64]:
-        structural = key in ("A", "C") and not self.self_transitions
-        return normalize(counts, float(self.smoothing), zero_diagonal=structural)
-
-    def _set_tables(
-        self, counts: Mapping[str, NDArray[np.generic]], probs: Mapping[str, NDArray[np.float64]]
-    ) -> None:
-        self.n_states_ = int(probs["A"].shape[0])
-        self.n_observations_ = int(probs["B"].shape[1])
-        self.A_counts_ = np.array(counts["A"], dtype=np.int64)
-        self.B_counts_ = np.array(counts["B"], dtype=np.int64)
-        self.C_counts_ = np.array(counts["C"], dtype=np.int64)
+    def _set_tables(self, counts: Mapping[str, Any]) -> None:
+        """Hold the counts (A dense, B and C sparse) and their log probabilities."""
+        k = float(self.smoothing)
+        no_self = not self.self_transitions
+        a_counts = counts["A"]
+        self.A_counts_ = np.asarray(
+            a_counts.toarray() if hasattr(a_counts, "toarray") else a_counts, dtype=np.int64
+        )
+        self.B_counts_ = canonical(counts["B"])
+        self.C_counts_ = canonical(counts["C"])
         self.pi_counts_ = np.array(counts["pi"], dtype=np.int64)
         self.start_counts_ = np.array(counts["start_prob_first"], dtype=np.int64)
-        self.log_A_ = safe_log(np.array(probs["A"], dtype=np.float64))
-        self.log_B_ = safe_log(np.array(probs["B"], dtype=np.float64))
-        self.log_C_ = safe_log(np.array(probs["C"], dtype=np.float64))
-        self.log_pi_ = safe_log(np.array(probs["pi"], dtype=np.float64))
-        self.start_prob_first_ = np.array(probs["start_prob_first"], dtype=np.float64)
-        # Kept as given so that to_arrays() round-trips bit for bit (exp(log p) != p).
-        self._probs = {k: np.array(probs[k], dtype=np.float64) for k in ("A", "B", "C", "pi")}
+        self.n_states_ = int(self.pi_counts_.shape[0])
+        self.n_observations_ = int(self.C_counts_.shape[0])
+        self.log_A_ = safe_log(normalize(self.A_counts_, k, zero_diagonal=no_self))
+        self.log_B_ = LogTable(*normalize_sparse(self.B_counts_, k, zero_diagonal=False))
+        self.log_C_ = LogTable(*normalize_sparse(self.C_counts_, k, zero_diagonal=no_self))
+        self.log_pi_ = safe_log(normalize(self.pi_counts_, k, zero_diagonal=False))
+        self.start_prob_first_ = normalize(self.start_counts_, k, zero_diagonal=False)
         # the rule the counts were made with: partial_fit adds counts only under the same one
         self._counted_with: tuple[str, bool] = (str(self.counting), bool(self.self_transitions))
         self._reset_caches()
@@ -369,7 +352,7 @@ class BehaviorHMM(Estimator):
         tree = self._trees.get(goal)
         if tree is None:
             if self._graph_rev is None:
-                self._graph_rev = reversed_graph(edge_costs(self.log_C_, self.path_self_loops))
+                self._graph_rev = path_graph(self.log_C_, self.path_self_loops)
             tree = goal_tree(self._graph_rev, goal)
             self._trees[goal] = tree
         return tree
@@ -528,7 +511,6 @@ class BehaviorHMM(Estimator):
         result = Plan(
             observations=observations,
             states=states,
-            segments=make_segments(observations, states),
             path_log_prob=path_log_prob,
             log_prob=log_prob,
             decoding=decoding,
@@ -610,28 +592,49 @@ class BehaviorHMM(Estimator):
         message = self._decoder(goal)._message(current)
         return bool(np.isfinite(np.max(self.log_pi_ + message)))
 
-    # ------------------------------------------------------------ persistence
-    def to_arrays(self) -> dict[str, NDArray[Any]]:
-        """Learned tables as plain arrays for the model file (no pickle).
+    def dense_probabilities(self) -> dict[str, NDArray[np.float64]]:
+        """π, A, B and C as dense probability arrays (hmmlearn's ``startprob_`` ...).
 
-        Keys: probabilities ``A``, ``B``, ``C``, ``pi``, ``start_prob_first``
-        (float64, in [0, 1], rows summing to 1 or all zero) and the raw counts
-        ``A_counts``, ``B_counts``, ``C_counts``, ``pi_counts``, ``start_counts``
-        (int64). Save :attr:`params` beside them.
+        For small models and for other libraries: B is (N, M) and C is (M, M), so this
+        allocates what the sparse tables avoid. Normalized from the counts as the model
+        normalizes them (without smoothing the same numbers, to the bit, as ``exp`` of
+        the log tables would give only approximately).
         """
         self._check_fitted()
+        k = float(self.smoothing)
+        no_self = not self.self_transitions
         return {
-            "A": self._probs["A"].copy(),
-            "B": self._probs["B"].copy(),
-            "C": self._probs["C"].copy(),
-            "pi": self._probs["pi"].copy(),
-            "start_prob_first": self.start_prob_first_.copy(),
-            "A_counts": self.A_counts_.copy(),
-            "B_counts": self.B_counts_.copy(),
-            "C_counts": self.C_counts_.copy(),
-            "pi_counts": self.pi_counts_.copy(),
-            "start_counts": self.start_counts_.copy(),
+            "pi": normalize(self.pi_counts_, k, zero_diagonal=False),
+            "A": normalize(self.A_counts_, k, zero_diagonal=no_self),
+            "B": normalize(self.B_counts_.toarray(), k, zero_diagonal=False),
+            "C": normalize(self.C_counts_.toarray(), k, zero_diagonal=no_self),
         }
+
+    # ------------------------------------------------------------ persistence
+    def to_arrays(self) -> dict[str, NDArray[Any]]:
+        """Learned counts as plain arrays for the model file (no pickle).
+
+        The probabilities are not stored: they are the counts normalized under the
+        parameters (see :attr:`params`), so a loaded model's are the same to the bit.
+        Keys: ``A``, ``B`` and ``C`` as compressed sparse rows, ``{X}_indptr`` (rows + 1),
+        ``{X}_indices`` and ``{X}_counts`` (one per counted entry, column indices
+        increasing within each row, no zero count); ``pi_counts`` and ``start_counts``
+        (N,). All int64. Save :attr:`params` beside them.
+        """
+        self._check_fitted()
+        tables = {
+            "A": canonical(csr_array(self.A_counts_)),
+            "B": self.B_counts_,
+            "C": self.C_counts_,
+        }
+        arrays: dict[str, NDArray[Any]] = {}
+        for name, table in tables.items():
+            arrays[f"{name}_indptr"] = np.array(table.indptr, dtype=np.int64)
+            arrays[f"{name}_indices"] = np.array(table.indices, dtype=np.int64)
+            arrays[f"{name}_counts"] = np.array(table.data, dtype=np.int64)
+        arrays["pi_counts"] = self.pi_counts_.copy()
+        arrays["start_counts"] = self.start_counts_.copy()
+        return arrays
 
     @classmethod
     def from_arrays(
@@ -639,9 +642,13 @@ class BehaviorHMM(Estimator):
     ) -> BehaviorHMM:
         """Rebuild a fitted model from :meth:`to_arrays` output and :attr:`params`.
 
-        Every array is checked: presence, dtype, shape consistency, finiteness,
-        probabilities in [0, 1] with rows summing to 1 (or all zero), non-negative
-        counts, and probabilities equal to the normalized counts.
+        Every array is checked, as arrays from a stranger's file: presence, integer
+        dtype, shapes, canonical sparse rows (see :func:`~behavior_hmm.hmm._tables.
+        check_counts`), non-negative counts, emissions that add up to the state
+        densities, and no self transition where the parameters have none. Nothing is
+        allocated from a claimed size: N is the length of ``pi_counts`` and M that of
+        ``C_indptr`` minus one, and A (held dense) is refused beyond
+        :data:`MAX_DENSE_STATES` states.
 
         Raises
         ------
@@ -657,26 +664,15 @@ class BehaviorHMM(Estimator):
             model._validate_params()
         except ConfigError as err:
             raise ModelFileError(f"invalid Behavior-HMM parameters in model file: {err}") from err
-        probs, counts = _checked_arrays(arrays)
-        for key, c in counts.items():
-            if c.size and c.min() < 0:  # unsigned counts beyond 2**63 wrapped around
-                raise ModelFileError(f"counts of '{key}' do not fit in 64-bit integers")
-        n, m = probs["B"].shape
+        counts = _checked_arrays(arrays, bool(model.self_transitions))
+        n, m = counts["B"].shape
         for name, size in (("n_states", n), ("n_observations", m)):
             declared = getattr(model, name)
             if declared is not None and declared != size:
                 raise ModelFileError(
                     f"{name}={declared} in the parameters but the arrays have {size}"
                 )
-        for key, p in probs.items():
-            expected = model._normalize(key, counts[key])
-            # |p - expected| <= tol everywhere (np.allclose, without its full-size temporaries)
-            np.subtract(expected, p, out=expected)
-            if not np.abs(expected, out=expected).max(initial=0.0) <= _MATCH_TOL:
-                raise ModelFileError(
-                    f"array '{key}' does not match the normalized '{_TABLES[key][0]}'"
-                )
-        model._set_tables(counts, probs)
+        model._set_tables(counts)
         return model
 
 
@@ -755,49 +751,59 @@ def _grown_size(
     return size
 
 
-def _checked_arrays(
-    arrays: Mapping[str, Any],
-) -> tuple[dict[str, NDArray[np.float64]], dict[str, NDArray[np.int64]]]:
-    expected = set(_TABLES) | {c for c, _ in _TABLES.values()}
+def _checked_arrays(arrays: Mapping[str, Any], self_transitions: bool) -> dict[str, Any]:
+    """The counts of :meth:`BehaviorHMM.to_arrays`, checked, keyed as ``_set_tables`` wants."""
+    expected = set(_VECTORS)
+    for name in _SPARSE_TABLES:
+        expected |= {f"{name}_indptr", f"{name}_indices", f"{name}_counts"}
     missing = sorted(expected - set(arrays))
     if missing:
         raise ModelFileError(f"Behavior-HMM arrays missing from model file: {missing}")
     extra = sorted(set(arrays) - expected)
     if extra:
         raise ModelFileError(f"unexpected Behavior-HMM arrays in model file: {extra}")
-    for key in expected:
-        if not isinstance(arrays[key], np.ndarray):
+    for key in sorted(expected):
+        arr = arrays[key]
+        if not isinstance(arr, np.ndarray):
             raise ModelFileError(f"Behavior-HMM array '{key}' is not an array")
-    a_shape = arrays["A"].shape
-    b_shape = arrays["B"].shape
-    if len(a_shape) != 2 or len(b_shape) != 2:
-        raise ModelFileError(f"arrays 'A' and 'B' must be 2-D, got shapes {a_shape}, {b_shape}")
-    sizes = {"N": b_shape[0], "M": b_shape[1]}
+        if arr.ndim != 1 or arr.dtype.kind not in "iu":
+            raise ModelFileError(f"array '{key}' must be 1-D integers, got {arr.dtype} {arr.shape}")
+        # unsigned values beyond 2**63 - 1 would wrap around to negative ones in int64
+        if arr.size and (arr.min() < 0 or arr.max() > np.iinfo(np.int64).max):
+            raise ModelFileError(f"array '{key}' has negative values or does not fit int64")
+    vectors = {key: np.asarray(arrays[key], dtype=np.int64) for key in _VECTORS}
+    sizes = {"N": int(vectors["pi_counts"].shape[0]), "M": int(arrays["C_indptr"].shape[0]) - 1}
     if sizes["N"] < 1 or sizes["M"] < 1:
-        raise ModelFileError(f"array 'B' has an empty shape {b_shape}")
-    probs: dict[str, NDArray[np.float64]] = {}
-    counts: dict[str, NDArray[np.int64]] = {}
-    for key, (ckey, axes) in _TABLES.items():
-        shape = tuple(sizes[a] for a in axes)
-        p = arrays[key]
-        c = arrays[ckey]
-        for name, arr in ((key, p), (ckey, c)):
-            if arr.shape != shape:
-                raise ModelFileError(f"array '{name}' has shape {arr.shape}, expected {shape}")
-        if p.dtype.kind != "f":
-            raise ModelFileError(f"array '{key}' must be floating point, got {p.dtype}")
-        if c.dtype.kind not in "iu":
-            raise ModelFileError(f"array '{ckey}' must hold integer counts, got {c.dtype}")
-        if not np.all(np.isfinite(p)):
-            raise ModelFileError(f"array '{key}' contains NaN or infinite values")
-        if p.min() < 0.0 or p.max() > 1.0:
-            raise ModelFileError(f"array '{key}' has probabilities outside [0, 1]")
-        sums = p.sum(axis=-1)
-        ok = (np.abs(sums - 1.0) <= _ROW_SUM_TOL) | (np.all(p == 0.0, axis=-1))
-        if not np.all(ok):
-            raise ModelFileError(f"array '{key}' has rows that sum to neither 1 nor 0")
-        if c.min() < 0:
-            raise ModelFileError(f"array '{ckey}' has negative counts")
-        probs[key] = np.asarray(p, dtype=np.float64)  # no copy: _set_tables copies
-        counts[ckey] = np.asarray(c, dtype=np.int64)
-    return probs, {key: counts[ckey] for key, (ckey, _) in _TABLES.items()}
+        raise ModelFileError("the Behavior-HMM has no states or no observation categories")
+    if sizes["N"] > MAX_DENSE_STATES:
+        raise ModelFileError(
+            f"{sizes['N']} states is more than a Behavior-HMM holds ({MAX_DENSE_STATES})"
+        )
+    if vectors["start_counts"].shape[0] != sizes["N"]:
+        raise ModelFileError("arrays 'pi_counts' and 'start_counts' differ in length")
+    tables: dict[str, csr_array] = {}
+    for name, cols in _SPARSE_TABLES.items():
+        indptr, indices, data = (
+            np.asarray(arrays[f"{name}_{part}"], dtype=np.int64)
+            for part in ("indptr", "indices", "counts")
+        )
+        rows = sizes["M"] if name == "C" else sizes["N"]
+        if indptr.shape[0] != rows + 1:
+            raise ModelFileError(f"array '{name}_indptr' must have {rows + 1} entries")
+        problem = check_counts(indptr, indices, data, sizes[cols])
+        if problem:
+            raise ModelFileError(f"sparse table '{name}' {problem}")
+        tables[name] = csr_array((data, indices, indptr), shape=(rows, sizes[cols]))
+    if not np.array_equal(tables["B"].sum(axis=1), vectors["pi_counts"]):
+        raise ModelFileError("the emission counts 'B' do not add up to 'pi_counts'")
+    if not self_transitions:
+        for name in ("A", "C"):
+            if np.any(tables[name].diagonal()):
+                raise ModelFileError(
+                    f"table '{name}' counts self transitions, which the parameters exclude"
+                )
+    return {
+        **tables,
+        "pi": vectors["pi_counts"],
+        "start_prob_first": vectors["start_counts"],
+    }

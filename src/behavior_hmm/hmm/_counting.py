@@ -1,6 +1,7 @@
 """Counting estimation of the Behavior-HMM tables (thesis §4.2, table 4.3).
 
-All functions work on integer label sequences, one label per control cycle, several
+The transition and emission counts are sparse (:mod:`behavior_hmm.hmm._tables`). All
+functions work on integer label sequences, one label per control cycle, several
 episodes concatenated (``lengths`` gives the samples per episode, hmmlearn style).
 Transitions are never counted across an episode boundary.
 """
@@ -11,6 +12,9 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.sparse import csr_array
+
+from behavior_hmm.hmm._tables import canonical, count_pairs, entry_rows, grown_sparse
 
 Counting = Literal["changes", "steps"]
 
@@ -38,7 +42,7 @@ def count_transitions(
     *,
     counting: Counting,
     self_transitions: bool,
-) -> IntArray:
+) -> csr_array:
     """Count label-to-label transitions (A for states, C for observations).
 
     Parameters
@@ -59,27 +63,27 @@ def count_transitions(
 
     Returns
     -------
-    ndarray of int64, shape (n, n)
-        ``counts[i, j]`` = number of transitions i → j.
+    scipy.sparse.csr_array of int64, shape (n, n)
+        ``counts[i, j]`` = number of transitions i → j (canonical: sorted, no zeros).
     """
     same = same_episode_mask(labels.size, lengths)
     src = labels[:-1][same]
     dst = labels[1:][same]
-    counts = np.bincount(src * n + dst, minlength=n * n).reshape(n, n).astype(np.int64)
     if counting == "changes" or not self_transitions:
-        np.fill_diagonal(counts, 0)
+        moved = src != dst
+        src, dst = src[moved], dst[moved]
     if counting == "changes" and self_transitions:
-        seen = np.bincount(labels, minlength=n) > 0
-        counts[seen, seen] += 1
-    return counts
+        seen = np.flatnonzero(np.bincount(labels, minlength=n) > 0)
+        src = np.concatenate([src, seen])  # one self transition per label seen
+        dst = np.concatenate([dst, seen])
+    return count_pairs(src, dst, (n, n))
 
 
 def count_emissions(
     states: IntArray, observations: IntArray, n_states: int, n_obs: int
-) -> IntArray:
-    """Count state/observation co-occurrences per control cycle (B), shape (n_states, n_obs)."""
-    flat = states * n_obs + observations
-    return np.bincount(flat, minlength=n_states * n_obs).reshape(n_states, n_obs).astype(np.int64)
+) -> csr_array:
+    """State/observation co-occurrences per control cycle (B), sparse (n_states, n_obs)."""
+    return count_pairs(states, observations, (n_states, n_obs))
 
 
 def count_density(states: IntArray, n_states: int) -> IntArray:
@@ -88,7 +92,7 @@ def count_density(states: IntArray, n_states: int) -> IntArray:
 
 
 def grown(counts: NDArray[np.generic], shape: tuple[int, ...]) -> IntArray:
-    """``counts`` as int64, enlarged to ``shape`` with zeros (new trailing rows/columns).
+    """``counts`` as int64, enlarged to ``shape`` with zeros (new trailing entries).
 
     Every axis of ``shape`` must be at least as long as that of ``counts``: tables only
     grow (new states or observation categories get the highest indices).
@@ -104,40 +108,39 @@ def grown(counts: NDArray[np.generic], shape: tuple[int, ...]) -> IntArray:
 def add_counts(old: NDArray[np.generic], new: IntArray) -> IntArray:
     """Counts of two disjoint sets of episodes added (``old`` grown to ``new``'s shape).
 
-    Exact for B, π and the episode starts, and for A and C counted with ``"steps"`` or
-    without self transitions: every count is a sum over episodes.
+    Exact for π and the episode starts: every count is a sum over episodes.
     """
     return grown(old, new.shape) + new
 
 
-def add_transitions(
-    old: NDArray[np.generic],
-    new: IntArray,
+def add_tables(
+    old: csr_array,
+    new: csr_array,
     *,
-    counting: Counting,
-    self_transitions: bool,
-) -> IntArray:
-    """Transition counts (A or C) of two disjoint sets of episodes, combined exactly.
+    counting: Counting | None = None,
+    self_transitions: bool = False,
+) -> csr_array:
+    """Sparse counts of two disjoint sets of episodes, combined exactly.
 
-    The counts off the diagonal add up. With ``counting="changes"`` and
-    ``self_transitions`` the diagonal is not a sum: :func:`count_transitions` puts one
-    self transition on every label seen in the data, so the combined diagonal is 1 where
-    the label was seen in either part (the element-wise maximum). The result equals
-    ``count_transitions`` of both parts' episodes together.
+    Emissions (B; ``counting=None``) and transitions counted with ``"steps"`` or without
+    self transitions add up. With ``counting="changes"`` and ``self_transitions``,
+    :func:`count_transitions` puts one self transition on every label seen in the data,
+    so the combined diagonal is 1 where the label was seen in either part. The result
+    equals the counts of both parts' episodes together.
 
     Parameters
     ----------
     old
-        Counts of the earlier episodes, shape (n_old, n_old) with ``n_old <= n``.
+        Counts of the earlier episodes; no larger than ``new`` on either axis.
     new
-        Counts of the new episodes, shape (n, n), made with the same rule.
+        Counts of the new episodes, made with the same rule.
     counting, self_transitions
-        The rule both were counted with (see :func:`count_transitions`).
+        The rule transitions were counted with (see :func:`count_transitions`).
     """
-    total = add_counts(old, new)
+    total = canonical(grown_sparse(old, new.shape) + new)
     if counting == "changes" and self_transitions:
-        seen = np.maximum(np.diagonal(grown(old, new.shape)), np.diagonal(new))
-        np.fill_diagonal(total, seen)
+        on_diagonal = entry_rows(total.indptr) == total.indices
+        total.data[on_diagonal] = 1
     return total
 
 

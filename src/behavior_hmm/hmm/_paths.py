@@ -16,6 +16,8 @@ from numpy.typing import NDArray
 from scipy.sparse import csr_array
 from scipy.sparse.csgraph import dijkstra
 
+from behavior_hmm.hmm._tables import LogTable
+
 PathSelfLoops = Literal["drop", "keep"]
 
 
@@ -44,6 +46,31 @@ def reversed_graph(w: NDArray[np.float64]) -> csr_array:
     """Sparse graph with edge j → i of cost ``w_ij`` (explicit zeros are edges)."""
     src, dst = np.nonzero(np.isfinite(w))
     return csr_array((w[src, dst], (dst, src)), shape=w.shape)
+
+
+def path_graph(log_C: LogTable, path_self_loops: PathSelfLoops) -> csr_array:
+    """The reversed graph of :func:`reversed_graph` built from the stored entries of C.
+
+    Without smoothing only counted transitions are edges, so the graph is built from the
+    stored entries alone; every cost is the one :func:`edge_costs` computes on the dense
+    table, to the bit, and the edges come in the same order (so Dijkstra gives the same
+    tree). A smoothed C makes every pair of categories an edge: that graph is built from
+    the dense table (memory M², as smoothing implies).
+    """
+    if log_C.dense_fill:
+        return reversed_graph(edge_costs(log_C.toarray(), path_self_loops))
+    src = log_C.rows()
+    dst = log_C.indices
+    w = -log_C.data
+    if path_self_loops == "drop":
+        c_ii = np.exp(log_C.diagonal())
+        with np.errstate(divide="ignore"):
+            log_rest = np.log1p(-np.minimum(c_ii, 1.0))
+        finite_rest = np.isfinite(log_rest)[src]
+        w[finite_rest] += log_rest[src[finite_rest]]
+    edge = (src != dst) & np.isfinite(w)
+    w = np.maximum(w[edge], 0.0)
+    return csr_array((w, (dst[edge], src[edge])), shape=log_C.shape)
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
@@ -45,8 +46,6 @@ class Plan:
         Observation categories from the current one to the goal, both included.
     states
         Decoded state for each element of ``observations``.
-    segments
-        ``states`` collapsed into runs, each with its exit observation.
     path_log_prob
         Log probability of the observation path under C (with the model's
         ``path_self_loops`` rule); 0.0 when current == goal.
@@ -59,10 +58,19 @@ class Plan:
 
     observations: tuple[int, ...]
     states: tuple[int, ...]
-    segments: tuple[Segment, ...]
     path_log_prob: float
     log_prob: float
     decoding: Literal["viterbi", "emissions"]
+
+    @functools.cached_property
+    def segments(self) -> tuple[Segment, ...]:
+        """``states`` collapsed into runs, each with its exit observation.
+
+        Made on first use: a controller that needs only the first state reads
+        ``states[0]``, and the many cached plans of a large model then hold no segment
+        objects for the garbage collector to walk through.
+        """
+        return make_segments(self.observations, self.states)
 
     @property
     def goal(self) -> int:

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.hmm import _compiled
+from behavior_hmm.hmm._tables import LogTable
+
+#: Log emissions: a dense (N, M) array, or a model's sparse :class:`LogTable`.
+Emissions = NDArray[np.float64] | LogTable
 
 KernelSetting = Literal["auto", "numba", "numpy"]
 
@@ -22,6 +27,9 @@ _SPARSE_MAX_DENSITY = 0.2
 #: Up to this many states the forward pass also stores every best predecessor (an argmax
 #: per state and step), which costs less than recomputing them while backtracking.
 _PREDECESSORS_MAX_STATES = 16
+#: Largest message (support of a node × support of its successor) that
+#: :class:`TreeViterbi` computes entry by entry in Python instead of with numpy calls.
+_SCALAR_MESSAGE_MAX = 64
 #: Which forward pass :func:`viterbi_log` runs; see :func:`set_kernel`.
 _kernel_setting: KernelSetting = "auto"
 
@@ -60,7 +68,7 @@ def _kernels() -> _compiled.Kernels | None:
 def viterbi_log(
     log_pi: NDArray[np.float64],
     log_A: NDArray[np.float64],
-    log_B: NDArray[np.float64],
+    log_B: Emissions,
     observations: NDArray[np.int64],
     *,
     compiled: bool = True,
@@ -70,8 +78,9 @@ def viterbi_log(
     Parameters
     ----------
     log_pi, log_A, log_B
-        Log initial distribution (N,), log transitions (N, N), log emissions (N, M);
-        ``-inf`` marks an impossible entry. Nothing here ever subtracts two log values,
+        Log initial distribution (N,), log transitions (N, N), log emissions (N, M,
+        dense or a sparse :class:`~behavior_hmm.hmm._tables.LogTable`); ``-inf`` marks
+        an impossible entry. Nothing here ever subtracts two log values,
         so ``-inf`` never turns into NaN.
     observations
         Observation indices, shape (T,), T ≥ 1.
@@ -174,8 +183,10 @@ def _impossible(lattice: NDArray[np.float64]) -> tuple[NDArray[np.int64], float,
     return np.zeros(lattice.shape[0], dtype=np.int64), float("-inf"), int(np.argmin(alive))
 
 
-def _emissions(log_B: NDArray[np.float64], observations: NDArray[np.int64]) -> NDArray[np.float64]:
+def _emissions(log_B: Emissions, observations: NDArray[np.int64]) -> NDArray[np.float64]:
     """``log_B[:, observations].T`` as a C-contiguous (T, N) array."""
+    if isinstance(log_B, LogTable):
+        return log_B.columns(observations)
     if log_B.nbytes <= 1 << 20:  # in the cache: gather the columns directly
         return log_B.T.take(observations, axis=0)
     # a large table: gather inside its rows, then transpose only the T columns needed
@@ -347,7 +358,7 @@ def _follow(psi: NDArray[np.intp], last: int) -> NDArray[np.int64]:
 
 def emission_decode(
     log_pi: NDArray[np.float64],
-    log_B: NDArray[np.float64],
+    log_B: Emissions,
     observations: NDArray[np.int64],
 ) -> tuple[NDArray[np.int64], int]:
     """Per-element posterior mode ``argmax_j π_j b_j(o)``, ignoring transitions.
@@ -361,7 +372,7 @@ def emission_decode(
     dead_at : int
         First position whose observation no state ever emits, or -1.
     """
-    scores = log_pi[None, :] + log_B[:, observations].T  # (T, N)
+    scores = log_pi[None, :] + _emissions(log_B, observations)  # (T, N)
     best = scores.max(axis=1)
     bad = np.flatnonzero(~np.isfinite(best))
     states = scores.argmax(axis=1).astype(np.int64)
@@ -371,12 +382,14 @@ def emission_decode(
 def sequence_log_prob(
     log_pi: NDArray[np.float64],
     log_A: NDArray[np.float64],
-    log_B: NDArray[np.float64],
+    log_B: Emissions,
     states: NDArray[np.int64],
     observations: NDArray[np.int64],
 ) -> float:
     """Joint ``log P(states, observations)`` of one given state sequence."""
     total = log_pi[states[0]] + log_A[states[:-1], states[1:]].sum()
+    if isinstance(log_B, LogTable):
+        return float(total + log_B.values(states, observations).sum())
     return float(total + log_B[states, observations].sum())
 
 
@@ -391,6 +404,14 @@ class TreeViterbi:
     walk through the stored argmaxes. The result is the Viterbi optimum of the path
     (ties may be broken differently from :func:`viterbi_log`).
 
+    A message is finite only at the states that emit the node's category (``log b_i(u)``
+    is ``-inf`` elsewhere), and a trained model's category is emitted by a few states.
+    So each node keeps its message on that support only, and a message costs
+    ``support(u) × support(next)`` entries of A instead of N × N: memory and time stay
+    small at thousands of states and 100,000 categories. Every kept value and argmax is
+    the one the dense recursion gives (the same sums; ties to the lowest state index).
+    A smoothed B has every state emit every category: the support is then all states.
+
     Parameters
     ----------
     next_node
@@ -398,7 +419,7 @@ class TreeViterbi:
     goal
         The goal observation category.
     log_pi, log_A, log_B
-        Model tables in log space, as in :func:`viterbi_log`.
+        Model tables in log space, as in :func:`viterbi_log` (``log_B`` sparse).
     """
 
     def __init__(
@@ -407,18 +428,33 @@ class TreeViterbi:
         goal: int,
         log_pi: NDArray[np.float64],
         log_A: NDArray[np.float64],
-        log_B: NDArray[np.float64],
+        log_B: LogTable,
     ) -> None:
         self._next_node = next_node
         self._goal = goal
         self._log_pi = log_pi
         self._log_A = log_A
         self._log_B = log_B
-        self._rows = np.arange(log_A.shape[0])
-        self._value: dict[int, NDArray[np.float64]] = {}
-        self._best_next: dict[int, list[int]] = {}
+        self._dense = log_B.dense_fill
+        self._col_ptr, self._col_rows, self._col_data = log_B._by_column()
+        self._log_a = log_A.item  # one entry of A as a Python float
+        # per node: the states that emit it (ascending), their message values, and for
+        # each of them the best state at the next node. Tuples of numbers and dicts of
+        # ints: the garbage collector stops tracking them, so that tens of thousands of
+        # cached nodes do not slow every full collection down.
+        self._support: dict[int, tuple[int, ...]] = {}
+        self._value: dict[int, tuple[float, ...]] = {}
+        self._best_next: dict[int, dict[int, int]] = {}
 
-    def _message(self, node: int) -> NDArray[np.float64]:
+    def _emitters(self, u: int) -> tuple[tuple[int, ...], tuple[float, ...]]:
+        """The states that may emit category ``u`` and their ``log b_i(u)``."""
+        if self._dense:
+            return tuple(range(self._log_A.shape[0])), tuple(self._log_B.column(u).tolist())
+        lo, hi = self._col_ptr.item(u), self._col_ptr.item(u + 1)
+        return tuple(self._col_rows[lo:hi].tolist()), tuple(self._col_data[lo:hi].tolist())
+
+    def _compute(self, node: int) -> None:
+        """Compute the messages of ``node`` and of the nodes after it not yet computed."""
         chain: list[int] = []
         u = node
         while u not in self._value:  # climb to the first node already computed
@@ -427,27 +463,76 @@ class TreeViterbi:
                 break
             u = self._next_node[u]
         for u in reversed(chain):
+            support, log_b = self._emitters(u)
+            self._support[u] = support
             if u == self._goal:
-                self._value[u] = self._log_B[:, u].copy()
+                self._value[u] = log_b
                 continue
-            scores = self._log_A + self._value[self._next_node[u]][None, :]
-            best = scores.argmax(axis=1)
-            self._value[u] = scores[self._rows, best] + self._log_B[:, u]
-            self._best_next[u] = best.tolist()
-        return self._value[node]
+            nxt = self._next_node[u]
+            if len(support) * len(self._support[nxt]) <= _SCALAR_MESSAGE_MAX:
+                value, best = self._scalar_message(support, log_b, nxt)
+            else:
+                value, best = self._array_message(support, log_b, nxt)
+            self._value[u] = value
+            self._best_next[u] = dict(zip(support, best, strict=True))
+
+    def _scalar_message(
+        self, support: tuple[int, ...], log_b: tuple[float, ...], nxt: int
+    ) -> tuple[tuple[float, ...], list[int]]:
+        """A small message entry by entry: the same sums and ties as the array path."""
+        next_support = self._support[nxt]
+        next_value = self._value[nxt]
+        log_a = self._log_a
+        first = next_support[0] if next_support else 0
+        value: list[float] = []
+        best: list[int] = []
+        for i, b in zip(support, log_b, strict=True):
+            top, arg = -math.inf, first
+            for j, v in zip(next_support, next_value, strict=True):
+                score = log_a(i, j) + v
+                if score > top:  # strictly: the lowest state wins a tie, as argmax
+                    top, arg = score, j
+            value.append(top + b)
+            best.append(arg)
+        return tuple(value), best
+
+    def _array_message(
+        self, support: tuple[int, ...], log_b: tuple[float, ...], nxt: int
+    ) -> tuple[tuple[float, ...], list[int]]:
+        """A large message (many emitting states, e.g. a smoothed B) with numpy."""
+        next_support = np.asarray(self._support[nxt], dtype=np.intp)
+        rows = np.asarray(support, dtype=np.intp)
+        scores = self._log_A[np.ix_(rows, next_support)] + np.asarray(self._value[nxt])[None, :]
+        arg = scores.argmax(axis=1)
+        value = scores[np.arange(rows.shape[0]), arg] + np.asarray(log_b)
+        return tuple(value.tolist()), next_support[arg].tolist()
+
+    def _message(self, node: int) -> NDArray[np.float64]:
+        """The dense message ``V_node`` (N,): ``-inf`` off its support."""
+        self._compute(node)
+        out = np.full(self._log_A.shape[0], -np.inf)
+        out[list(self._support[node])] = self._value[node]
+        return out
 
     def decode(self, path: list[int]) -> tuple[list[int], float]:
         """Most likely states along ``path`` (which must be a path of this tree).
 
         Returns ``([], -inf)`` when every state sequence is impossible.
         """
-        start = self._log_pi + self._message(path[0])
-        state = int(start.argmax())
-        log_prob = float(start[state])
+        first = path[0]
+        self._compute(first)
+        support = self._support[first]
+        if not support:
+            return [], float("-inf")
+        start = self._log_pi[list(support)] + np.asarray(self._value[first])
+        at = int(start.argmax())
+        log_prob = float(start[at])
         if not np.isfinite(log_prob):
             return [], float("-inf")
+        state = support[at]
         states = [state]
+        best_next = self._best_next
         for u in path[:-1]:
-            state = self._best_next[u][state]
+            state = best_next[u][state]
             states.append(state)
         return states, log_prob

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from scipy.sparse import csr_array
 
 from behavior_hmm.data._channels import (
     CHANNEL_NAME,
@@ -78,13 +79,12 @@ def check_goal(
     return out
 
 
-def entered_categories(c_counts: np.ndarray) -> np.ndarray:
+def entered_categories(c_counts: csr_array) -> np.ndarray:
     """Observation categories that the demonstrations entered from another category."""
-    counts = np.asarray(c_counts, dtype=np.int64)
-    return (counts.sum(axis=0) - np.diag(counts)) > 0
+    return (np.asarray(c_counts.sum(axis=0)) - c_counts.diagonal()) > 0
 
 
-def best_goal_category(scores: np.ndarray, c_counts: np.ndarray) -> int:
+def best_goal_category(scores: np.ndarray, c_counts: csr_array) -> int:
     """The best-matching category for a goal window among those a path can end in.
 
     A still window at an intermediate goal (e.g. 0.5 m for an approach) matches best the
@@ -108,7 +108,7 @@ GOAL_VALUE_MARGIN = 0.05
 
 def goal_candidates(
     scores: np.ndarray,
-    c_counts: np.ndarray,
+    c_counts: csr_array,
     latest: np.ndarray,
     goal: np.ndarray,
     limit: int = 64,

@@ -1,12 +1,18 @@
 """The ``.bhmm`` model file: a zip of ``model.json`` + ``arrays.npz``, never pickle.
 
-Layout (format ``behavior-hmm-model``, version 1):
+Layout (format ``behavior-hmm-model``, version 2):
 
 - ``model.json``: ``{"format", "version", "kind", "params", "state", "arrays_sha256"}``;
   ``kind`` is ``"SBLM"`` or ``"CBLM"``; ``params`` the constructor parameters; ``state``
   the learned non-array state; ``arrays_sha256`` the SHA-256 of ``arrays.npz``.
 - ``arrays.npz``: every learned array (``.npy`` members of numeric dtype, no pickle).
-  A CBLM stores each component's model file, byte for byte, as a ``uint8`` array.
+  A CBLM stores each component's model file, byte for byte, as a ``uint8`` array. The
+  Behavior-HMM stores its counts only, A, B and C as compressed sparse rows (see
+  :meth:`~behavior_hmm.hmm.BehaviorHMM.to_arrays`).
+
+Version 1 stored every Behavior-HMM table densely, probabilities beside counts (an
+(M, M) table for M observation categories). It is refused with a pointer to
+``behavior-hmm upgrade``, which converts it without loss (:mod:`._upgrade`).
 
 A file whose hash does not match, whose members differ, whose JSON or arrays are
 malformed, or that is not a zip at all (e.g. a pickle renamed ``.bhmm``) is refused
@@ -25,9 +31,9 @@ else is raised and nothing hangs. The bounds (raise one here if a real model nee
 - ``MAX_LOAD_BYTES`` (128 MiB): everything one load holds at once, components included:
   the file, each zip member (counted twice: it is copied once while read), every
   array, and the parsed JSON (counted as 32 bytes per character of text).
-- ``MAX_ARRAY_BYTES`` (64 MiB): one array, e.g. the (M, M) observation transitions of
-  up to 2896 observation categories (the turn & approach CBLM of docs/results.md has
-  2316: 86 MB of arrays in a 0.4 MB file; its load peaks at about 220 MB).
+- ``MAX_ARRAY_BYTES`` (64 MiB): one array, e.g. the 8 million stored counts of a sparse
+  table (the turn & approach CBLM of docs/results.md has 2,315 observation categories
+  and 4,630 transitions among them: 37 KB where version 1 stored 86 MB of dense tables).
 - ``MAX_ARRAYS`` (1024): arrays in ``arrays.npz``; ``MAX_ZIP_DIRECTORY`` (256 KiB):
   a zip's central directory, checked before ``zipfile`` parses it.
 - ``MAX_JSON_BYTES`` (64 KiB; a real ``model.json`` has 2 KiB), ``MAX_JSON_DEPTH`` (32,
@@ -43,8 +49,9 @@ else is raised and nothing hangs. The bounds (raise one here if a real model nee
   in the arrays.
 
 A file that passes every check can still make its load hold about 2.5 times
-``MAX_LOAD_BYTES`` at the peak (the Behavior-HMM keeps its own copies of its tables);
-every refused file is refused long before that.
+``MAX_LOAD_BYTES`` at the peak (the Behavior-HMM derives its log tables from the counts,
+and holds A densely: at most 2 × 64 MiB at its bound of 2,896 states); every refused file
+is refused long before that.
 
 Zip members must be stored or deflated, unencrypted and without zip64; arrays must be
 ``.npy`` version 1.0 or 2.0 of kind bool, int, uint or float (at most 8 bytes an item).
@@ -73,7 +80,9 @@ from behavior_hmm._atomic import atomic_write_bytes
 from behavior_hmm.errors import ModelFileError
 
 FORMAT: Final[str] = "behavior-hmm-model"
-VERSION: Final[int] = 1
+VERSION: Final[int] = 2
+#: Versions :mod:`._upgrade` converts to :data:`VERSION`.
+UPGRADABLE: Final[frozenset[int]] = frozenset({1})
 _MEMBERS: Final[frozenset[str]] = frozenset({"model.json", "arrays.npz"})
 _MIB: Final[int] = 1024 * 1024
 
@@ -116,6 +125,16 @@ def dump(
 
     A model beyond the size bounds of :func:`load` is refused here, not at its next load.
     """
+    atomic_write_bytes(path, dumps(kind, params, state, arrays))
+
+
+def dumps(
+    kind: str,
+    params: Mapping[str, Any],
+    state: Mapping[str, Any],
+    arrays: Mapping[str, np.ndarray],
+) -> bytes:
+    """The bytes :func:`dump` writes."""
     if len(arrays) > MAX_ARRAYS:
         raise ModelFileError(f"{len(arrays)} arrays is more than a model file holds")
     buf = io.BytesIO()
@@ -149,7 +168,7 @@ def dump(
     with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zf:
         zf.writestr(_zipinfo("model.json"), text)
         zf.writestr(_zipinfo("arrays.npz"), arrays_bytes, compress_type=zipfile.ZIP_STORED)
-    atomic_write_bytes(path, out.getvalue())
+    return out.getvalue()
 
 
 def _zipinfo(name: str) -> zipfile.ZipInfo:
@@ -216,14 +235,20 @@ def load(
 
 
 def loads(
-    data: bytes, where: str, budget: Budget | None = None
+    data: bytes,
+    where: str,
+    budget: Budget | None = None,
+    versions: frozenset[int] = frozenset({VERSION}),
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """:func:`load` of a model file's bytes (e.g. a CBLM's component); ``where`` names it."""
+    """:func:`load` of a model file's bytes (e.g. a CBLM's component); ``where`` names it.
+
+    ``versions``: the format versions accepted (the upgrade reads older ones too).
+    """
     budget = Budget() if budget is None else budget
     try:
         budget.take(len(data), "the file")
         text, arrays_bytes = _read_members(data, budget)
-        header = _parse_header(text, budget)
+        header = _parse_header(text, budget, versions)
         if hashlib.sha256(arrays_bytes).hexdigest() != header["arrays_sha256"]:
             raise ModelFileError("arrays do not match their checksum (corrupted or edited)")
         arrays = _read_arrays(arrays_bytes, budget)
@@ -344,7 +369,7 @@ _JSON_SYNTAX = re.compile(r'[\[\]{}"]')
 _JSON_STRING_REST = re.compile(r'[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
 
 
-def _parse_header(text: bytes, budget: Budget) -> dict[str, Any]:
+def _parse_header(text: bytes, budget: Budget, versions: frozenset[int]) -> dict[str, Any]:
     """``model.json`` parsed within the JSON bounds, with its top-level fields checked."""
     budget.take(_JSON_OBJECT_BYTES * len(text), "model.json")
     try:
@@ -367,9 +392,13 @@ def _parse_header(text: bytes, budget: Budget) -> dict[str, Any]:
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise ModelFileError("not a behavior-hmm model file (format field)")
     version = header.get("version")
-    if type(version) is not int or version != VERSION:
+    if type(version) is not int or version not in versions:
+        hint = ""
+        if type(version) is int and version in UPGRADABLE:
+            hint = "; convert it with 'behavior-hmm upgrade MODEL' (lossless)"
         raise ModelFileError(
-            f"model file version {_short(version)} is not supported (this version reads {VERSION})"
+            f"model file version {_short(version)} is not supported "
+            f"(this version reads {VERSION}){hint}"
         )
     for key, kind in (("kind", str), ("params", dict), ("state", dict), ("arrays_sha256", str)):
         if not isinstance(header.get(key), kind):

@@ -478,19 +478,24 @@ class SimplePolicy(GoalTracking, RateLimited):
             if self._recognize:
                 scores = self._hmm.state_scores(category, self.goal_category)
                 return self._recognized(self._log_pi + scores)
-            return self._hmm.plan(category, self.goal_category).segments[0].state
+            return self._hmm.plan(category, self.goal_category).states[0]
         scores = self._hmm.state_scores(category, self.goal_category)
         if category != self._last_obs:
             # Forward Viterbi message over the distinct observations seen so far.
             if self._last_obs < 0:
                 prior = self._log_pi
             else:
-                prior = np.max(self._alpha[:, None] + self._log_A, axis=0)
-            alpha = prior + self._log_B[:, category]
+                # only the states the history leaves possible can lead anywhere
+                alive = np.flatnonzero(np.isfinite(self._alpha))
+                if alive.size:
+                    prior = np.max(self._alpha[alive, None] + self._log_A[alive], axis=0)
+                else:
+                    prior = np.full(self._alpha.shape[0], -np.inf)
+            alpha = prior + self._log_B.column(category)
             top = alpha.max()
             if not np.isfinite(top):  # the history explains nothing any more: restart
                 prior = self._log_pi
-                alpha = prior + self._log_B[:, category]
+                alpha = prior + self._log_B.column(category)
                 top = alpha.max()
             self._alpha = alpha - top
             self._prior = prior
@@ -498,7 +503,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         total = self._prior + scores
         best = int(np.argmax(total))
         if not np.isfinite(total[best]):
-            return self._hmm.plan(category, self.goal_category).segments[0].state
+            return self._hmm.plan(category, self.goal_category).states[0]
         if self._recognize:
             return self._recognized(total)
         return best

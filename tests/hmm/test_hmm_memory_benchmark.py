@@ -1,0 +1,64 @@
+"""``behavior-hmm bench memory``: the synthetic Behavior-HMMs it scales to are shaped like
+trained ones, and its probes report what they say (values, not timings, are checked)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import behavior_hmm.benchmarks.memory as bench
+
+
+def test_synthetic_walks_end_at_the_goal_one_level_per_step() -> None:
+    cats, lengths = bench.synthetic_walks(5_000, 7, np.random.default_rng(0))
+    assert lengths.tolist() == [bench.LEVELS] * 7 and cats.size == lengths.sum()
+    walks = cats.reshape(7, bench.LEVELS)
+    assert (walks[:, -1] == 0).all() and (walks[:, :-1] > 0).all()
+    lanes = 5_000 // bench.LEVELS
+    level = (walks[:, :-1] - 1) // lanes + 1
+    assert (np.diff(level, axis=1) == -1).all()  # one level closer every step
+    assert cats.max() < 5_000
+
+
+def test_synthetic_hmm_is_sparse_and_every_walk_can_plan_to_the_goal() -> None:
+    hmm = bench.synthetic_hmm(20_000, 300)
+    assert (hmm.n_observations_, hmm.n_states_) == (20_000, 300)
+    assert hmm.C_counts_.nnz < 5 * 20_000  # a few successors a category, not M²
+    assert hmm.B_counts_.nnz < 2 * 20_000  # a category is emitted by one or two states
+    assert np.count_nonzero(hmm.A_counts_) < 10 * 300
+    cats, _ = bench.synthetic_walks(20_000, 20, np.random.default_rng(5))
+    # held-out walks start in any lane; most of them were demonstrated
+    starts = [c for c in cats[:: bench.LEVELS].tolist() if hmm.can_plan(c, 0)]
+    assert len(starts) >= 10
+    for start in starts:
+        plan = hmm.plan(start, 0)
+        assert plan.observations[0] == start and plan.goal == 0
+        assert len(plan.observations) == bench.LEVELS and np.isfinite(plan.log_prob)
+
+
+def test_scaling_probe_loads_the_file_and_times_every_cycle(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.setattr(bench, "SIZES", ((2_000, 20),))
+    monkeypatch.setattr(bench, "WALKS", 2)
+    (row,) = bench._scaling(quick=False, folder=tmp_path)
+    assert row["observation_categories"] == 2_000 and row["states"] == 20
+    assert row["steps_timed"] == 2 * (bench.LEVELS * bench.HOLD_CYCLES - 1)
+    assert 0 < row["step_us_median"] <= row["step_us_p99"] <= row["step_us_max"]
+    assert row["load_s"] > 0 and row["peak_mb"] >= row["load_peak_above_imports_mb"] >= 0
+    assert row["dense_c_would_be_mb"] == 2_000**2 * 8 / 1e6
+    assert row["file_mb"] < row["dense_c_would_be_mb"]
+
+
+def test_child_peak_is_measured_in_a_process_of_its_own() -> None:
+    peak, wall = bench._child_peak_mb(["--version"])
+    assert peak > 10 and wall > 0
+
+
+def test_live_match_times_the_categorization_at_each_size(turn_model: Any) -> None:
+    rows = bench.live_match(turn_model, sizes=(50, 400))
+    assert [r["observation_categories"] for r in rows] == [50, 400]
+    assert all(0 < r["update_us_median"] <= r["update_us_p99"] for r in rows)
