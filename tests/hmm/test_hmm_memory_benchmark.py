@@ -62,3 +62,26 @@ def test_live_match_times_the_categorization_at_each_size(turn_model: Any) -> No
     rows = bench.live_match(turn_model, sizes=(50, 400))
     assert [r["observation_categories"] for r in rows] == [50, 400]
     assert all(0 < r["update_us_median"] <= r["update_us_p99"] for r in rows)
+
+
+def test_plot_memory_draws_every_size(tmp_path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from behavior_hmm.benchmarks._plot import plot_memory
+
+    def row(m: int, n: int) -> dict[str, Any]:
+        return {
+            "observation_categories": m,
+            "states": n,
+            "load_s": m / 1e6,
+            "load_peak_above_imports_mb": m / 1e4,
+            "dense_c_would_be_mb": m * m * 8 / 1e6,
+            "step_us_median": 10.0,
+            "step_us_p99": 50.0 + m / 1e3,
+            "step_us_max": 900.0,
+        }
+
+    path = plot_memory({"scaling": [row(1_000, 50), row(100_000, 2_000)]}, tmp_path)
+    assert path == tmp_path / "memory_scaling.png"
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000

@@ -3,11 +3,13 @@
 Usage::
 
     python -m behavior_hmm.benchmarks._plot --step step.json --train train.json \
-        --hmm hmm.json -o DIR
+        --hmm hmm.json --memory memory.json -o DIR
 
 Writes ``step_scaling.png`` (control step against observation categories and against
-primitives), ``train_curve.png`` (training time against demonstrations) and
-``viterbi.png`` (ours against hmmlearn), for the files given.
+primitives), ``train_curve.png`` (training time against demonstrations),
+``viterbi.png`` (ours against hmmlearn) and ``memory_scaling.png`` (the sparse
+Behavior-HMM's load and per-cycle planning against observation categories), for the
+files given.
 """
 
 from __future__ import annotations
@@ -123,6 +125,45 @@ def plot_hmm(results: dict[str, Any], out: Path) -> Path:
     return path
 
 
+def plot_memory(results: dict[str, Any], out: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    rows = sorted(results["scaling"], key=lambda r: (r["observation_categories"], r["states"]))
+    x = [r["observation_categories"] for r in rows]
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+    axes[0].plot(x, [r["load_s"] * 1e3 for r in rows], "o-", label="load")
+    axes[1].plot(x, [r["load_peak_above_imports_mb"] for r in rows], "o-", label="load peak")
+    axes[1].plot(x, [r["dense_c_would_be_mb"] for r in rows], "k:", label="one dense C table")
+    axes[2].plot(x, [r["step_us_p99"] for r in rows], "o-", label="99th percentile")
+    axes[2].plot(x, [r["step_us_max"] for r in rows], "^--", color="grey", label="maximum")
+    axes[2].plot(x, [r["step_us_median"] for r in rows], "s-", color="green", label="median")
+    axes[2].axhline(1000, color="red", lw=0.8, ls=":", label="1 ms")
+    for ax in axes:  # name each point's states beside it
+        for r, line in ((r, ax.lines[0]) for r in rows):
+            i = rows.index(r)
+            ax.annotate(
+                f"N={r['states']:,}",
+                (x[i], line.get_ydata()[i]),
+                textcoords="offset points",
+                xytext=(4, -10 if i % 2 else 4),
+                fontsize=7,
+            )
+    titles = ("load of the file, ms", "load peak above imports, MB", "per-cycle planning, µs")
+    for ax, title in zip(axes, titles, strict=True):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("observation categories")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="center right" if ax is axes[2] else "upper left")
+    fig.suptitle("Sparse Behavior-HMM on synthetic models (bench memory; N = states)", fontsize=11)
+    fig.tight_layout()
+    path = out / "memory_scaling.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         prog="python -m behavior_hmm.benchmarks._plot", description=__doc__
@@ -130,11 +171,18 @@ def main() -> int:
     parser.add_argument("--step")
     parser.add_argument("--train")
     parser.add_argument("--hmm")
+    parser.add_argument("--memory")
     parser.add_argument("-o", "--out", required=True)
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for path, plot in ((args.step, plot_step), (args.train, plot_train), (args.hmm, plot_hmm)):
+    plots = (
+        (args.step, plot_step),
+        (args.train, plot_train),
+        (args.hmm, plot_hmm),
+        (args.memory, plot_memory),
+    )
+    for path, plot in plots:
         data = _load(path)
         if data is not None:
             print(plot(data, out))
