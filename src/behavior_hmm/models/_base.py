@@ -449,6 +449,19 @@ class LearnedBehavior(Estimator):
         return goal_candidates(scores, self.hmm_.C_counts_, latest, window[-1, columns], limit)
 
 
+#: Default ``progress_limit`` of SBLMs and CBLMs: a run that still closes in on its goal at
+#: its step limit may go on up to 4 times as long (a robot 4 times slower than its
+#: demonstrations: the approach's 3.9 rad/s wheels held to 1 rad/s). The thesis: 1.
+DEFAULT_PROGRESS_LIMIT = 4.0
+
+
+def check_progress_limit(value: Any) -> None:
+    """``progress_limit``: a number in [1, 10] (multiples of the model's ``max_steps_``)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    if not number or not 1.0 <= float(value) <= 10.0:
+        raise ConfigError(f"progress_limit must be a number in [1, 10], got {value!r}")
+
+
 def check_rate_limit(value: Any) -> None:
     """``command_rate_limit``: a finite number in [0, 100] (multiples of the demos' change)."""
     number = isinstance(value, int | float) and not isinstance(value, bool)

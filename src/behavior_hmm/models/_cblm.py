@@ -25,7 +25,13 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._base import LearnedBehavior, check_rate_limit, dataset_hash
+from behavior_hmm.models._base import (
+    DEFAULT_PROGRESS_LIMIT,
+    LearnedBehavior,
+    check_progress_limit,
+    check_rate_limit,
+    dataset_hash,
+)
 from behavior_hmm.models._goals import check_goal, check_input_names
 from behavior_hmm.models._sblm import (
     SBLM,
@@ -98,6 +104,12 @@ class CBLM(LearnedBehavior):
         If > 0, the complex behavior's command may change per control cycle by at most
         this multiple of the largest change in its demonstrations (``delta_scale_``,
         rad/s), across component switches too, and it stops softly (thesis: 0).
+    progress_limit
+        A run that at its step limit (``max_steps_``) still closes in on its goal goes
+        on, up to this many times ``max_steps_`` cycles in all, as long as every quarter
+        of ``max_steps_`` lowers its goal error by 10 % (``runtime.Progress``): a robot
+        slower than its demonstrations (a lower speed limit, a lagging motor) is not
+        stopped short while it is getting there (thesis: 1, a fixed limit).
     settle_cycles
         When the goal's tolerance is entered while the running component still heads
         for a goal inside it, that component may finish (its own stop rule: at rest,
@@ -170,6 +182,7 @@ class CBLM(LearnedBehavior):
         forward_goals: bool = True,
         handover_pause: bool = True,
         reach_check: bool = True,
+        progress_limit: float = DEFAULT_PROGRESS_LIMIT,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -189,6 +202,7 @@ class CBLM(LearnedBehavior):
         self.forward_goals = forward_goals
         self.handover_pause = handover_pause
         self.reach_check = reach_check
+        self.progress_limit = progress_limit
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -207,6 +221,7 @@ class CBLM(LearnedBehavior):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         check_rate_limit(self.command_rate_limit)
+        check_progress_limit(self.progress_limit)
         for name, low in (("switch_cycles", 1), ("start_alternatives", 0), ("settle_cycles", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 1000:

@@ -599,7 +599,8 @@ def perform(
     seed, noise
         Passed to ``env.reset`` (sensor noise: sigma times each channel's range).
     max_steps
-        Step limit; default the model's ``max_steps_``.
+        Step limit; default the model's ``max_steps_``. A run that still closes in on
+        its goal there may go on up to the model's ``progress_limit`` times as long.
     pushes
         Scheduled pushes ``{"step", "angle", "distance"}`` (see the env's reset options).
     fault_hold_s
@@ -630,4 +631,5 @@ def perform(
         max_steps=limit,
         pushes=pushes,
         fault_hold_s=fault_hold_s,
+        progress_limit=float(getattr(model, "progress_limit", 1.0)),
     )

@@ -140,6 +140,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "generators also learn from runs where the teacher corrects a disturbed heading",
     ),
     Departure(
+        "progress_limit",
+        {"SBLM": {"progress_limit": 1.0}, "CBLM": {"progress_limit": 1.0}},
+        "a run still closing in on its goal at its step limit goes on (up to 4× as long)",
+    ),
+    Departure(
         "path_self_loops",
         {"SBLM": {"path_self_loops": "keep"}, "CBLM": {"path_self_loops": "keep"}},
         "plan on c_ij / (1 − c_ii), the next different category (thesis: −log c_ij)",

@@ -33,7 +33,13 @@ from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
 from behavior_hmm.hmm._paths import PathSelfLoops
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._base import LearnedBehavior, check_rate_limit, dataset_hash
+from behavior_hmm.models._base import (
+    DEFAULT_PROGRESS_LIMIT,
+    LearnedBehavior,
+    check_progress_limit,
+    check_rate_limit,
+    dataset_hash,
+)
 from behavior_hmm.models._goals import check_goal, check_input_names
 
 FloatArray = NDArray[np.float64]
@@ -155,6 +161,12 @@ class SBLM(LearnedBehavior):
         the goal it ramps to zero at that rate before the run ends (a soft stop). The
         teacher is jerk-limited; without it the robot jolts at every primitive switch
         (turn: 6.7× the teacher's largest change; approach 24×). 0 disables it (thesis).
+    progress_limit
+        A run that at its step limit (``max_steps_``) still closes in on its goal goes
+        on, up to this many times ``max_steps_`` cycles in all, as long as every quarter
+        of ``max_steps_`` lowers its goal error by 10 % (``runtime.Progress``): a robot
+        slower than its demonstrations (a lower speed limit, a lagging motor) is not
+        stopped short while it is getting there (thesis: 1, a fixed limit).
     goal_braking
         If true (default; needs ``command_rate_limit`` > 0), when a ramp to rest at the
         rate limit started any later would overshoot the goal (predicted from
@@ -237,6 +249,7 @@ class SBLM(LearnedBehavior):
         command_rate_limit: float = 1.5,
         goal_braking: bool = True,
         learn_corrections: bool = True,
+        progress_limit: float = DEFAULT_PROGRESS_LIMIT,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -264,6 +277,7 @@ class SBLM(LearnedBehavior):
         self.command_rate_limit = command_rate_limit
         self.goal_braking = goal_braking
         self.learn_corrections = learn_corrections
+        self.progress_limit = progress_limit
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
@@ -284,6 +298,7 @@ class SBLM(LearnedBehavior):
         if isinstance(held, bool) or not isinstance(held, int | float) or not 0 <= held < 1:
             raise ConfigError(f"generator_test_fraction must lie in [0, 1), got {held!r}")
         check_rate_limit(self.command_rate_limit)
+        check_progress_limit(self.progress_limit)
 
     def _checked_inputs(self, available: Sequence[str] | None = None) -> tuple[str, ...]:
         """The inputs, each one of ``available`` (a dataset's channels; default: all known)."""

@@ -9,7 +9,10 @@ Safety rules of the loop (docs/usage.md, "Sensor faults and stopping"):
 * a non-finite reading on a channel the controller reads is replaced by that channel's
   last good value for at most ``fault_hold_s`` seconds; past that, or with no good
   value yet, the run ends as a ``"sensor_fault"``. Controllers never see a NaN on a
-  channel they read.
+  channel they read;
+* the step limit ends a run, unless ``progress_limit`` lets a run that still closes in
+  on its goal go on (:class:`Progress`): a robot slower than its demonstrations (a lower
+  speed limit, a weaker motor) is not stopped short while it is getting there.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.data._channels import within_tolerance
+from behavior_hmm.data._channels import channel, within_tolerance
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.runtime._policy import Policy
 from behavior_hmm.runtime._robot import Robot
@@ -32,6 +35,73 @@ FloatArray = NDArray[np.float64]
 #: Default longest time (s) a non-finite reading is replaced by its last good value
 #: (0.1 s: 6 control periods of 16 ms).
 DEFAULT_FAULT_HOLD_S: Final[float] = 0.1
+#: Past the step limit, the goal error is checked every ``max_steps / PROGRESS_CHECKS``
+#: cycles; the run goes on only if the error fell by at least ``PROGRESS_MIN_DROP`` (a
+#: share of the last check's) since the last check.
+PROGRESS_CHECKS: Final[int] = 4
+PROGRESS_MIN_DROP: Final[float] = 0.1
+#: Readings averaged into one goal error (sensor noise would make single readings jump).
+PROGRESS_READINGS: Final[int] = 8
+
+
+class Progress:
+    """Whether a run at its step limit still closes in on its goal, so may go on.
+
+    The goal error of a reading is the sum over the goal's channels of ``|error| /
+    tolerance`` (an angle's error wrapped, as its channel declares), averaged over the
+    last ``PROGRESS_READINGS`` readings. At ``max_steps`` and every ``max_steps /
+    PROGRESS_CHECKS`` cycles after, the run goes on if that error fell by at least
+    ``PROGRESS_MIN_DROP`` of its value at the previous check (the first check compares
+    with one period before the limit), up to ``progress_limit × max_steps`` cycles in
+    all. ``progress_limit == 1`` is a fixed step limit.
+    """
+
+    def __init__(
+        self,
+        goal: Mapping[str, float],
+        specs: Mapping[str, Any],
+        max_steps: int,
+        progress_limit: float,
+    ) -> None:
+        self._goal = [
+            (name, float(value), specs[name] if name in specs else channel(name))
+            for name, value in goal.items()
+        ]
+        self.max_steps = int(max_steps)
+        self.period = max(1, self.max_steps // PROGRESS_CHECKS)
+        self.limit = max(self.max_steps, math.floor(progress_limit * self.max_steps))
+        self._recent: list[float] = []
+        self._checks: dict[int, float] = {}
+
+    def error(self, values: Mapping[str, float]) -> float:
+        """The goal error of one reading (0 at the goal; 1 at one tolerance on one channel)."""
+        total = 0.0
+        for name, target, spec in self._goal:
+            tol = float(spec.tolerance or 1.0)
+            total += abs(spec.error(values[name], target)) / tol
+        return total
+
+    def observe(self, step: int, values: Mapping[str, float]) -> None:
+        """Record the reading of cycle ``step``."""
+        if self.limit == self.max_steps:
+            return
+        self._recent.append(self.error(values))
+        del self._recent[:-PROGRESS_READINGS]
+        after = step + 1 - (self.max_steps - self.period)  # checks are due before cycles
+        if after >= 0 and after % self.period == 0:  # max_steps - period, max_steps, ...
+            self._checks[step + 1] = sum(self._recent) / len(self._recent)
+
+    def goes_on(self, step: int) -> bool:
+        """Whether cycle ``step`` (``>= max_steps``) may still run."""
+        if step >= self.limit:
+            return False
+        if (step - self.max_steps) % self.period:
+            return True  # between checks: decided at the last one
+        now = self._checks.get(step)
+        before = self._checks.get(step - self.period)
+        if now is None or before is None:
+            return False
+        return now <= (1.0 - PROGRESS_MIN_DROP) * before
 
 
 def start_options(
@@ -151,6 +221,7 @@ def run_policy(
     max_steps: int = 2000,
     pushes: Sequence[Mapping[str, float]] | None = None,
     fault_hold_s: float = DEFAULT_FAULT_HOLD_S,
+    progress_limit: float = 1.0,
 ) -> Trace:
     """Reset ``env`` at ``start`` and run ``policy`` until done or ``max_steps``.
 
@@ -183,6 +254,11 @@ def run_policy(
         16 ms for the default 0.1 s); counted in ``trace.held_readings``. One more
         non-finite reading, or one before any good value of its channel, stops the
         robot and ends the run with ``reason == "sensor_fault"``. 0 disables holding.
+    progress_limit
+        At most this many times ``max_steps`` cycles in all, for a run that at its
+        step limit still closes in on its goal (:class:`Progress`); 1 (default): the
+        step limit is fixed. A run that ends past ``max_steps`` without its goal ends
+        with ``reason == "step_limit"`` too.
     """
     robot = env if isinstance(env, Robot) else Robot(env)
     dt = robot.control_period
@@ -216,7 +292,12 @@ def run_policy(
             **(getattr(policy, "channel_specs", {})),
         }
         reason = "step_limit"
-        for k in range(max_steps):
+        progress = Progress(trace.goal, trace.channel_specs, max_steps, progress_limit)
+        k = -1
+        while True:
+            k += 1
+            if k >= max_steps and not progress.goes_on(k):
+                break
             seen, held = guard(reading)
             trace.t.append(k * dt)
             trace.readings.append(reading)
@@ -235,7 +316,9 @@ def run_policy(
                 reason = "sensor_fault"
                 trace.fault_channels = list(guard.faulted)
                 break
-            out = policy.step(dict(zip(names, seen.tolist(), strict=True)))
+            values = dict(zip(names, seen.tolist(), strict=True))
+            progress.observe(k, values)
+            out = policy.step(values)
             trace.observation.append(int(out.observation))
             trace.novel.append(bool(out.novel))
             trace.state.append(int(out.state))
