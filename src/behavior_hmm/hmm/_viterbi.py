@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from typing import Literal
 
 import numpy as np
@@ -30,6 +31,8 @@ _PREDECESSORS_MAX_STATES = 16
 #: Largest message (support of a node × support of its successor) that
 #: :class:`TreeViterbi` computes entry by entry in Python instead of with numpy calls.
 _SCALAR_MESSAGE_MAX = 64
+#: Dense messages (N-vectors) :class:`TreeViterbi` keeps, most recently asked for first.
+_DENSE_MESSAGES = 256
 #: Which forward pass :func:`viterbi_log` runs; see :func:`set_kernel`.
 _kernel_setting: KernelSetting = "auto"
 
@@ -410,7 +413,8 @@ class TreeViterbi:
     ``support(u) × support(next)`` entries of A instead of N × N: memory and time stay
     small at thousands of states and 100,000 categories. Every kept value and argmax is
     the one the dense recursion gives (the same sums; ties to the lowest state index).
-    A smoothed B has every state emit every category: the support is then all states.
+    A smoothed B has every state emit every category: the messages are then whole
+    N-vectors, computed with numpy as the dense recursion computes them.
 
     Parameters
     ----------
@@ -445,13 +449,35 @@ class TreeViterbi:
         self._support: dict[int, tuple[int, ...]] = {}
         self._value: dict[int, tuple[float, ...]] = {}
         self._best_next: dict[int, dict[int, int]] = {}
+        self._dense_cache: OrderedDict[int, NDArray[np.float64]] = OrderedDict()
+        # a smoothed B (every state emits every category): whole N-vectors and argmaxes,
+        # numpy throughout (the supports would be all N states)
+        self._full_value: dict[int, NDArray[np.float64]] = {}
+        self._full_next: dict[int, list[int]] = {}
+        self._rows = np.arange(log_A.shape[0])
 
     def _emitters(self, u: int) -> tuple[tuple[int, ...], tuple[float, ...]]:
         """The states that may emit category ``u`` and their ``log b_i(u)``."""
-        if self._dense:
-            return tuple(range(self._log_A.shape[0])), tuple(self._log_B.column(u).tolist())
         lo, hi = self._col_ptr.item(u), self._col_ptr.item(u + 1)
         return tuple(self._col_rows[lo:hi].tolist()), tuple(self._col_data[lo:hi].tolist())
+
+    def _compute_full(self, node: int) -> None:
+        """:meth:`_compute` for a smoothed B: dense messages, ``N × N`` per node."""
+        chain: list[int] = []
+        u = node
+        while u not in self._full_value:
+            chain.append(u)
+            if u == self._goal:
+                break
+            u = self._next_node[u]
+        for u in reversed(chain):
+            if u == self._goal:
+                self._full_value[u] = self._log_B.column(u)
+                continue
+            scores = self._log_A + self._full_value[self._next_node[u]][None, :]
+            best = scores.argmax(axis=1)
+            self._full_value[u] = scores[self._rows, best] + self._log_B.column(u)
+            self._full_next[u] = best.tolist()
 
     def _compute(self, node: int) -> None:
         """Compute the messages of ``node`` and of the nodes after it not yet computed."""
@@ -508,10 +534,25 @@ class TreeViterbi:
         return tuple(value.tolist()), next_support[arg].tolist()
 
     def _message(self, node: int) -> NDArray[np.float64]:
-        """The dense message ``V_node`` (N,): ``-inf`` off its support."""
+        """The dense message ``V_node`` (N,): ``-inf`` off its support.
+
+        The last ``_DENSE_MESSAGES`` asked for are kept (a controller asks for the same
+        category's message every cycle while it stays there); do not modify the array.
+        """
+        if self._dense:
+            self._compute_full(node)
+            return self._full_value[node]
+        dense = self._dense_cache
+        out = dense.get(node)
+        if out is not None:
+            dense.move_to_end(node)
+            return out
         self._compute(node)
         out = np.full(self._log_A.shape[0], -np.inf)
         out[list(self._support[node])] = self._value[node]
+        dense[node] = out
+        if len(dense) > _DENSE_MESSAGES:
+            dense.popitem(last=False)
         return out
 
     def decode(self, path: list[int]) -> tuple[list[int], float]:
@@ -520,6 +561,8 @@ class TreeViterbi:
         Returns ``([], -inf)`` when every state sequence is impossible.
         """
         first = path[0]
+        if self._dense:
+            return self._decode_full(path)
         self._compute(first)
         support = self._support[first]
         if not support:
@@ -534,5 +577,20 @@ class TreeViterbi:
         best_next = self._best_next
         for u in path[:-1]:
             state = best_next[u][state]
+            states.append(state)
+        return states, log_prob
+
+    def _decode_full(self, path: list[int]) -> tuple[list[int], float]:
+        """:meth:`decode` for a smoothed B (dense messages)."""
+        self._compute_full(path[0])
+        start = self._log_pi + self._full_value[path[0]]
+        state = int(start.argmax())
+        log_prob = float(start[state])
+        if not np.isfinite(log_prob):
+            return [], float("-inf")
+        states = [state]
+        full_next = self._full_next
+        for u in path[:-1]:
+            state = full_next[u][state]
             states.append(state)
         return states, log_prob

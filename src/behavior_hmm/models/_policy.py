@@ -487,7 +487,9 @@ class SimplePolicy(GoalTracking, RateLimited):
             else:
                 # only the states the history leaves possible can lead anywhere
                 alive = np.flatnonzero(np.isfinite(self._alpha))
-                if alive.size:
+                if alive.size == self._alpha.shape[0]:  # e.g. smoothed: no copy of A
+                    prior = np.max(self._alpha[:, None] + self._log_A, axis=0)
+                elif alive.size:
                     prior = np.max(self._alpha[alive, None] + self._log_A[alive], axis=0)
                 else:
                     prior = np.full(self._alpha.shape[0], -np.inf)
