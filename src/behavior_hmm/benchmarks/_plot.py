@@ -24,6 +24,25 @@ def _load(path: str | None) -> dict[str, Any] | None:
     return None if path is None else json.loads(Path(path).read_text(encoding="utf-8"))
 
 
+def _save(fig: Any, path: Path) -> Path:
+    """Lay ``fig`` out, write it to ``path`` (110 dpi) and close it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _log_log(ax: Any, xlabel: str, title: str) -> None:
+    """Both axes logarithmic, a label, a title and the grid of the scaling figures."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+
+
 def plot_step(results: dict[str, Any], out: Path) -> Path:
     import matplotlib.pyplot as plt
 
@@ -48,23 +67,15 @@ def plot_step(results: dict[str, Any], out: Path) -> Path:
         x = [r[key] for r in sel]
         ax.plot(x, [r["step_us_median"] for r in sel], "o-", label="median")
         ax.plot(x, [r["step_us_p99"] for r in sel], "s--", label="99th percentile")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(label)
-        ax.grid(True, which="both", alpha=0.3)
         other = "primitives" if varied == "observations" else "observation categories"
         fixed = base["primitives"] if varied == "observations" else base["observation_categories"]
-        ax.set_title(f"{label}; {other} ≈ {fixed}", fontsize=10)
+        _log_log(ax, label, f"{label}; {other} ≈ {fixed}")
     axes[0].set_ylabel("control step, µs (wall clock)")
     axes[0].axhline(1000, color="red", lw=0.8, ls=":")
     axes[0].text(120, 1080, "1 ms: p99 target at 5,000 categories", color="red", fontsize=8)
     axes[1].legend(loc="upper left")
     fig.suptitle("SBLM control step (turn, kinematic robot, 15 test starts)", fontsize=11)
-    fig.tight_layout()
-    path = out / "step_scaling.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, out / "step_scaling.png")
 
 
 def plot_train(results: dict[str, Any], out: Path) -> Path:
@@ -88,11 +99,7 @@ def plot_train(results: dict[str, Any], out: Path) -> Path:
     ax.set_ylim(0, max(r["train_s"] for r in rows) * 1.15)
     ax.grid(True, alpha=0.3)
     ax.set_title("Training time against demonstrations", fontsize=11)
-    fig.tight_layout()
-    path = out / "train_curve.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, out / "train_curve.png")
 
 
 def plot_hmm(results: dict[str, Any], out: Path) -> Path:
@@ -118,11 +125,7 @@ def plot_hmm(results: dict[str, Any], out: Path) -> Path:
     ax.set_ylabel("median, ms")
     ax.legend()
     ax.set_title("Viterbi on the same models", fontsize=11)
-    fig.tight_layout()
-    path = out / "viterbi.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, out / "viterbi.png")
 
 
 def plot_memory(results: dict[str, Any], out: Path) -> Path:
@@ -138,30 +141,21 @@ def plot_memory(results: dict[str, Any], out: Path) -> Path:
     axes[2].plot(x, [r["step_us_max"] for r in rows], "^--", color="grey", label="maximum")
     axes[2].plot(x, [r["step_us_median"] for r in rows], "s-", color="green", label="median")
     axes[2].axhline(1000, color="red", lw=0.8, ls=":", label="1 ms")
-    for ax in axes:  # name each point's states beside it
-        for r, line in ((r, ax.lines[0]) for r in rows):
-            i = rows.index(r)
+    titles = ("load of the file, ms", "load peak above imports, MB", "per-cycle planning, µs")
+    for ax, title in zip(axes, titles, strict=True):
+        first = ax.lines[0].get_ydata()  # name each point of the first curve by its states
+        for i, r in enumerate(rows):
             ax.annotate(
                 f"N={r['states']:,}",
-                (x[i], line.get_ydata()[i]),
+                (x[i], first[i]),
                 textcoords="offset points",
                 xytext=(4, -10 if i % 2 else 4),
                 fontsize=7,
             )
-    titles = ("load of the file, ms", "load peak above imports, MB", "per-cycle planning, µs")
-    for ax, title in zip(axes, titles, strict=True):
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("observation categories")
-        ax.set_title(title, fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
+        _log_log(ax, "observation categories", title)
         ax.legend(fontsize=7, loc="center right" if ax is axes[2] else "upper left")
     fig.suptitle("Sparse Behavior-HMM on synthetic models (bench memory; N = states)", fontsize=11)
-    fig.tight_layout()
-    path = out / "memory_scaling.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, out / "memory_scaling.png")
 
 
 def main() -> int:

@@ -38,7 +38,14 @@ from behavior_hmm.hmm._counting import (
 )
 from behavior_hmm.hmm._paths import GoalTree, PathSelfLoops, goal_tree, path_graph, walk
 from behavior_hmm.hmm._plan import Plan
-from behavior_hmm.hmm._tables import LogTable, canonical, check_counts, normalize_sparse
+from behavior_hmm.hmm._tables import (
+    CSR_PARTS,
+    LogTable,
+    canonical,
+    check_counts,
+    csr_arrays,
+    normalize_sparse,
+)
 from behavior_hmm.hmm._viterbi import TreeViterbi, emission_decode, viterbi_log
 
 OnImpossible = Literal["raise", "emissions"]
@@ -304,7 +311,7 @@ class BehaviorHMM(Estimator):
         """Hold the counts (A dense, B and C sparse) and their log probabilities."""
         k = float(self.smoothing)
         no_self = not self.self_transitions
-        a_counts = counts["A"]
+        a_counts = counts["A"]  # sparse from counting and files; dense from tests' tables
         self.A_counts_ = np.asarray(
             a_counts.toarray() if hasattr(a_counts, "toarray") else a_counts, dtype=np.int64
         )
@@ -629,9 +636,7 @@ class BehaviorHMM(Estimator):
         }
         arrays: dict[str, NDArray[Any]] = {}
         for name, table in tables.items():
-            arrays[f"{name}_indptr"] = np.array(table.indptr, dtype=np.int64)
-            arrays[f"{name}_indices"] = np.array(table.indices, dtype=np.int64)
-            arrays[f"{name}_counts"] = np.array(table.data, dtype=np.int64)
+            arrays.update(csr_arrays(name, table))
         arrays["pi_counts"] = self.pi_counts_.copy()
         arrays["start_counts"] = self.start_counts_.copy()
         return arrays
@@ -755,7 +760,7 @@ def _checked_arrays(arrays: Mapping[str, Any], self_transitions: bool) -> dict[s
     """The counts of :meth:`BehaviorHMM.to_arrays`, checked, keyed as ``_set_tables`` wants."""
     expected = set(_VECTORS)
     for name in _SPARSE_TABLES:
-        expected |= {f"{name}_indptr", f"{name}_indices", f"{name}_counts"}
+        expected |= {f"{name}_{part}" for part in CSR_PARTS}
     missing = sorted(expected - set(arrays))
     if missing:
         raise ModelFileError(f"Behavior-HMM arrays missing from model file: {missing}")
@@ -784,8 +789,7 @@ def _checked_arrays(arrays: Mapping[str, Any], self_transitions: bool) -> dict[s
     tables: dict[str, csr_array] = {}
     for name, cols in _SPARSE_TABLES.items():
         indptr, indices, data = (
-            np.asarray(arrays[f"{name}_{part}"], dtype=np.int64)
-            for part in ("indptr", "indices", "counts")
+            np.asarray(arrays[f"{name}_{part}"], dtype=np.int64) for part in CSR_PARTS
         )
         rows = sizes["M"] if name == "C" else sizes["N"]
         if indptr.shape[0] != rows + 1:

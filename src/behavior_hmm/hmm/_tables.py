@@ -73,6 +73,19 @@ def entry_rows(indptr: IntArray) -> IntArray:
     return np.repeat(np.arange(indptr.shape[0] - 1, dtype=np.int64), np.diff(indptr))
 
 
+#: The arrays a count table is stored as, ``{name}_{part}``: compressed sparse rows.
+CSR_PARTS: tuple[str, ...] = ("indptr", "indices", "counts")
+
+
+def csr_arrays(name: str, table: csr_array) -> dict[str, NDArray[np.int64]]:
+    """The int64 arrays ``{name}_indptr``, ``{name}_indices``, ``{name}_counts`` of ``table``."""
+    parts = (table.indptr, table.indices, table.data)
+    return {
+        f"{name}_{part}": np.array(values, dtype=np.int64)
+        for part, values in zip(CSR_PARTS, parts, strict=True)
+    }
+
+
 def check_counts(
     indptr: NDArray[Any], indices: NDArray[Any], counts: NDArray[Any], n_cols: int
 ) -> str | None:

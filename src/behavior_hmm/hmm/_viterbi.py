@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Container, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
@@ -461,16 +462,21 @@ class TreeViterbi:
         lo, hi = self._col_ptr.item(u), self._col_ptr.item(u + 1)
         return tuple(self._col_rows[lo:hi].tolist()), tuple(self._col_data[lo:hi].tolist())
 
-    def _compute_full(self, node: int) -> None:
-        """:meth:`_compute` for a smoothed B: dense messages, ``N × N`` per node."""
+    def _uncomputed(self, node: int, done: Container[int]) -> list[int]:
+        """``node`` and the nodes after it toward the goal not in ``done``, goal side first."""
         chain: list[int] = []
         u = node
-        while u not in self._full_value:
+        while u not in done:  # climb to the first node already computed
             chain.append(u)
             if u == self._goal:
                 break
             u = self._next_node[u]
-        for u in reversed(chain):
+        chain.reverse()
+        return chain
+
+    def _compute_full(self, node: int) -> None:
+        """:meth:`_compute` for a smoothed B: dense messages, ``N × N`` per node."""
+        for u in self._uncomputed(node, self._full_value):
             if u == self._goal:
                 self._full_value[u] = self._log_B.column(u)
                 continue
@@ -481,14 +487,7 @@ class TreeViterbi:
 
     def _compute(self, node: int) -> None:
         """Compute the messages of ``node`` and of the nodes after it not yet computed."""
-        chain: list[int] = []
-        u = node
-        while u not in self._value:  # climb to the first node already computed
-            chain.append(u)
-            if u == self._goal:
-                break
-            u = self._next_node[u]
-        for u in reversed(chain):
+        for u in self._uncomputed(node, self._value):
             support, log_b = self._emitters(u)
             self._support[u] = support
             if u == self._goal:
@@ -525,7 +524,7 @@ class TreeViterbi:
     def _array_message(
         self, support: tuple[int, ...], log_b: tuple[float, ...], nxt: int
     ) -> tuple[tuple[float, ...], list[int]]:
-        """A large message (many emitting states, e.g. a smoothed B) with numpy."""
+        """A large message (categories emitted by many states) with numpy."""
         next_support = np.asarray(self._support[nxt], dtype=np.intp)
         rows = np.asarray(support, dtype=np.intp)
         scores = self._log_A[np.ix_(rows, next_support)] + np.asarray(self._value[nxt])[None, :]
@@ -561,36 +560,26 @@ class TreeViterbi:
         Returns ``([], -inf)`` when every state sequence is impossible.
         """
         first = path[0]
-        if self._dense:
-            return self._decode_full(path)
-        self._compute(first)
-        support = self._support[first]
-        if not support:
-            return [], float("-inf")
-        start = self._log_pi[list(support)] + np.asarray(self._value[first])
+        follow: Mapping[int, Mapping[int, int]] | Mapping[int, list[int]]
+        if self._dense:  # whole N-vectors: position = state
+            self._compute_full(first)
+            support: Sequence[int] = range(self._log_A.shape[0])
+            start = self._log_pi + self._full_value[first]
+            follow = self._full_next
+        else:
+            self._compute(first)
+            support = self._support[first]
+            if not support:
+                return [], float("-inf")
+            start = self._log_pi[list(support)] + np.asarray(self._value[first])
+            follow = self._best_next
         at = int(start.argmax())
         log_prob = float(start[at])
         if not np.isfinite(log_prob):
             return [], float("-inf")
         state = support[at]
         states = [state]
-        best_next = self._best_next
         for u in path[:-1]:
-            state = best_next[u][state]
-            states.append(state)
-        return states, log_prob
-
-    def _decode_full(self, path: list[int]) -> tuple[list[int], float]:
-        """:meth:`decode` for a smoothed B (dense messages)."""
-        self._compute_full(path[0])
-        start = self._log_pi + self._full_value[path[0]]
-        state = int(start.argmax())
-        log_prob = float(start[state])
-        if not np.isfinite(log_prob):
-            return [], float("-inf")
-        states = [state]
-        full_next = self._full_next
-        for u in path[:-1]:
-            state = full_next[u][state]
+            state = follow[u][state]
             states.append(state)
         return states, log_prob

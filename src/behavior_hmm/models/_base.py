@@ -142,6 +142,8 @@ class LearnedBehavior(Estimator):
     counting: str
     smoothing: float
     path_self_loops: str
+    command_rate_limit: float
+    progress_limit: float
 
     def check_params(self) -> None:
         """Refuse parameters out of range (ConfigError) before any data is read."""
@@ -154,6 +156,11 @@ class LearnedBehavior(Estimator):
         smoothing = self.smoothing
         if isinstance(smoothing, bool) or not isinstance(smoothing, int | float) or smoothing < 0:
             raise ConfigError(f"smoothing must be a number >= 0, got {smoothing!r}")
+        for name, (low, high) in _RANGES.items():
+            value = getattr(self, name)
+            number = isinstance(value, int | float) and not isinstance(value, bool)
+            if not number or not low <= float(value) <= high:
+                raise ConfigError(f"{name} must be a number in [{low:g}, {high:g}], got {value!r}")
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Self:
@@ -455,18 +462,13 @@ class LearnedBehavior(Estimator):
 DEFAULT_PROGRESS_LIMIT = 4.0
 
 
-def check_progress_limit(value: Any) -> None:
-    """``progress_limit``: a number in [1, 10] (multiples of the model's ``max_steps_``)."""
-    number = isinstance(value, int | float) and not isinstance(value, bool)
-    if not number or not 1.0 <= float(value) <= 10.0:
-        raise ConfigError(f"progress_limit must be a number in [1, 10], got {value!r}")
-
-
-def check_rate_limit(value: Any) -> None:
-    """``command_rate_limit``: a finite number in [0, 100] (multiples of the demos' change)."""
-    number = isinstance(value, int | float) and not isinstance(value, bool)
-    if not number or not 0.0 <= float(value) <= 100.0:
-        raise ConfigError(f"command_rate_limit must be a number in [0, 100], got {value!r}")
+#: Parameters both kinds share that are a number in a closed range: ``command_rate_limit``
+#: (multiples of the demonstrations' largest command change per cycle) and
+#: ``progress_limit`` (multiples of the model's ``max_steps_``).
+_RANGES: dict[str, tuple[float, float]] = {
+    "command_rate_limit": (0.0, 100.0),
+    "progress_limit": (1.0, 10.0),
+}
 
 
 #: The keys a model file's provenance may hold (text unless said otherwise).

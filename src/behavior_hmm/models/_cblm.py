@@ -28,8 +28,6 @@ from behavior_hmm.models import _modelfile
 from behavior_hmm.models._base import (
     DEFAULT_PROGRESS_LIMIT,
     LearnedBehavior,
-    check_progress_limit,
-    check_rate_limit,
     dataset_hash,
 )
 from behavior_hmm.models._goals import check_goal, check_input_names
@@ -220,8 +218,6 @@ class CBLM(LearnedBehavior):
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        check_rate_limit(self.command_rate_limit)
-        check_progress_limit(self.progress_limit)
         for name, low in (("switch_cycles", 1), ("start_alternatives", 0), ("settle_cycles", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 1000:

@@ -36,8 +36,6 @@ from behavior_hmm.models import _modelfile
 from behavior_hmm.models._base import (
     DEFAULT_PROGRESS_LIMIT,
     LearnedBehavior,
-    check_progress_limit,
-    check_rate_limit,
     dataset_hash,
 )
 from behavior_hmm.models._goals import check_goal, check_input_names
@@ -297,8 +295,6 @@ class SBLM(LearnedBehavior):
         held = self.generator_test_fraction
         if isinstance(held, bool) or not isinstance(held, int | float) or not 0 <= held < 1:
             raise ConfigError(f"generator_test_fraction must lie in [0, 1), got {held!r}")
-        check_rate_limit(self.command_rate_limit)
-        check_progress_limit(self.progress_limit)
 
     def _checked_inputs(self, available: Sequence[str] | None = None) -> tuple[str, ...]:
         """The inputs, each one of ``available`` (a dataset's channels; default: all known)."""

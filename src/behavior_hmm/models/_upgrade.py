@@ -23,7 +23,7 @@ from behavior_hmm._atomic import atomic_write_bytes
 from behavior_hmm.errors import ModelFileError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import normalize
-from behavior_hmm.hmm._tables import canonical
+from behavior_hmm.hmm._tables import canonical, csr_arrays
 from behavior_hmm.models import _modelfile
 
 #: The dense Behavior-HMM arrays of a version 1 file: probability -> its counts.
@@ -116,10 +116,7 @@ def _v1_hmm(arrays: Mapping[str, np.ndarray], params: Mapping[str, Any]) -> dict
         dense = counts[f"{name}_counts"]
         if dense.ndim != 2:
             raise ModelFileError(f"array '{name}_counts' must be 2-D")
-        table = canonical(csr_array(dense))
-        out[f"{name}_indptr"] = np.asarray(table.indptr, dtype=np.int64)
-        out[f"{name}_indices"] = np.asarray(table.indices, dtype=np.int64)
-        out[f"{name}_counts"] = np.asarray(table.data, dtype=np.int64)
+        out.update(csr_arrays(name, canonical(csr_array(dense))))
     out["pi_counts"] = counts["pi_counts"]
     out["start_counts"] = counts["start_counts"]
     BehaviorHMM.from_arrays(out, params)  # the converted tables pass the current checks

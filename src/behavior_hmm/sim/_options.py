@@ -19,12 +19,15 @@ def reset_options(options: Mapping[str, Any] | None, known: Sequence[str]) -> Ma
     options = {} if options is None else options
     if not isinstance(options, Mapping):
         raise ConfigError(f"reset options must be a dict, got {type(options).__name__}")
-    unknown = sorted(str(k) for k in options if k not in known)
-    if unknown:
-        raise ConfigError(
-            f"unknown reset option(s): {', '.join(unknown)}; expected some of {', '.join(known)}"
-        )
+    refuse_unknown(options, known, "reset option(s)", f"some of {', '.join(known)}")
     return options
+
+
+def refuse_unknown(mapping: Mapping[Any, Any], known: Sequence[str], what: str, hint: str) -> None:
+    """ConfigError ``unknown {what}: KEYS; expected {hint}`` for keys of ``mapping`` not known."""
+    unknown = sorted(str(k) for k in mapping if k not in known)
+    if unknown:
+        raise ConfigError(f"unknown {what}: {', '.join(unknown)}; expected {hint}")
 
 
 def number(value: object, what: str) -> float:
@@ -75,11 +78,7 @@ def parse_pushes(raw: object) -> dict[int, list[tuple[float, float]]]:
     for item in items:
         if not isinstance(item, Mapping):
             raise ConfigError(f"each push must be a dict, got {item!r}")
-        unknown = sorted(str(k) for k in item if k not in PUSH_KEYS)
-        if unknown:
-            raise ConfigError(
-                f"unknown push key(s): {', '.join(unknown)}; expected step, angle, distance"
-            )
+        refuse_unknown(item, PUSH_KEYS, "push key(s)", ", ".join(PUSH_KEYS))
         step = item.get("step")
         if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
             raise ConfigError(f"push step must be an integer >= 1, got {step!r}")
