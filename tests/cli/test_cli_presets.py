@@ -112,3 +112,18 @@ def test_inspect_refuses_a_plot_of_a_model(
     )
     assert result.exit_code == 0, result.output
     assert_user_error(invoke(["inspect", model, "--plot", tmp_path / "m.png"]), "model file")
+
+
+def test_an_experiment_names_the_changes_over_its_preset() -> None:
+    """A table's score is never shown under a preset's name it does not have."""
+    from behavior_hmm.cli._common import model_params
+
+    assert model_params(("SBLM",), None, None, None)[0] == "default"
+    assert model_params(("SBLM",), "thesis", None, [])[0] == "thesis"
+    name, params = model_params(("SBLM",), None, None, ["generator_network=elman"])
+    assert name == "default + generator_network='elman'"
+    assert params["SBLM"]["generator_network"] == "elman"
+    # a --set that restates the preset's own value changes nothing
+    assert model_params(("SBLM", "CBLM"), "default", None, ["epochs=400"])[0] == "default"
+    name, _ = model_params(("SBLM", "CBLM"), "default", None, ["cblm.repair=false"])
+    assert name == "default; default + repair=False"

@@ -53,13 +53,14 @@ def test_rows_of_a_simple_task_leave_out_cblm_departures() -> None:
         + [f"thesis + {n}" for n in sblm]
         + ["default"]
         + [f"default − {n}" for n in sblm]
+        + ["default + elman", "default − onset_clock + elman"]
     )
     assert "repair" not in {n for r in rows for n in r.switched}
 
 
 def test_rows_of_the_complex_task_cover_every_departure() -> None:
     rows = ablation_rows(task("turn-approach"))
-    assert len(rows) == 2 + 2 * len(DEPARTURES)
+    assert len(rows) == 2 + 2 * len(DEPARTURES) + 2  # + elman, − onset_clock + elman
     assert {n for r in rows for n in r.switched} == {d.name for d in DEPARTURES}
     assert [t.name for t in ABLATION_TASKS] == ["turn", "approach", "turn-approach"]
 
@@ -69,6 +70,28 @@ def test_row_parameters() -> None:
     assert row.params("CBLM") == {**preset_params("thesis", "CBLM"), "repair": True}
     assert row.params("SBLM") == preset_params("thesis", "SBLM")
     assert AblationRow("default", ("repair",)).params("CBLM")["repair"] is False
+
+
+def test_option_rows_set_the_option_over_the_default() -> None:
+    row = AblationRow("default", ("onset_clock",), ("elman",))
+    assert row.label == "default − onset_clock + elman"
+    params = row.params("SBLM")
+    assert params["generator_network"] == "elman" and params["onset_clock"] == 0
+    assert preset_params("default", "SBLM")["generator_network"] == "mlp"
+    assert preset_params("thesis", "SBLM")["generator_network"] == "mlp"  # the thesis's MLP
+    assert row.params("CBLM") == preset_params("default", "CBLM")
+    only = ablation_rows(task("turn"), ["elman"])
+    assert [r.label for r in only] == [
+        "thesis",
+        "default",
+        "default + elman",
+        "default − onset_clock + elman",
+    ]
+    assert [r.label for r in ablation_rows(task("turn"), ["onset_clock"])][-1] == (
+        "default − onset_clock"
+    )
+    with pytest.raises(ConfigError, match=r"unknown departure or option .elmann.*elman"):
+        ablation_rows(task("turn"), ["elmann"])
 
 
 @pytest.mark.slow

@@ -45,7 +45,7 @@ def _cruise(
     """
     model.set_params(goal_braking=braking)
     policy = model.policy({"distance": 0.0})
-    policy._gens = _Stuck(cruise)  # a generator that never slows down by itself
+    policy._generator = _Stuck(cruise)  # a generator that never slows down by itself
     d, u, wheels = 0.15, np.zeros(2), np.zeros(2)
     commands, distances, done = [], [], False
     for _ in range(600):
@@ -71,8 +71,11 @@ class _Stuck:
     def __init__(self, value: float) -> None:
         self.value = np.array([value, value])
 
-    def predict_one(self, x: Any, state: int) -> np.ndarray:
+    def step(self, x: Any, state: int) -> np.ndarray:
         return self.value.copy()
+
+    def reset(self) -> None:
+        pass
 
 
 def test_braking_ramps_to_rest_inside_the_goal(approach: SBLM) -> None:
@@ -150,7 +153,7 @@ def test_complex_behavior_finishes_at_rest(kinematic_env: Any) -> None:
         for component in (turn, approach):
             component.set_params(goal_braking=settle > 0)
         policy = CBLM([turn, approach], settle_cycles=settle).fit(data).policy(None)
-        policy._children[1]._gens = _Stuck(0.4)  # an approach that never slows down
+        policy._children[1]._generator = _Stuck(0.4)  # an approach that never slows down
         trace = run_policy(policy, kinematic_env, start={"angle": 0.0, "distance": 0.3}, seed=0)
         assert trace.goal_reached and "approach" in trace.component
         jumps[settle] = command_jump(trace.command_array) / policy._children[1]._rate

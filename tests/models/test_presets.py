@@ -128,3 +128,22 @@ def test_cblm_parameters_are_checked(params: dict[str, object], message: str) ->
 def test_sblm_parameters_are_checked(params: dict[str, object], message: str) -> None:
     with pytest.raises(ConfigError, match=message):
         SBLM(**params).check_params()  # type: ignore[arg-type]
+
+
+def test_every_option_is_off_in_both_presets_and_names_real_parameters() -> None:
+    from behavior_hmm.models import OPTIONS
+    from behavior_hmm.models._presets import check_row_name, option
+
+    assert [o.name for o in OPTIONS] == ["elman"]
+    for item in OPTIONS:
+        assert option(item.name) is item and check_row_name(item.name) == item.name
+        assert not {item.name} & {d.name for d in DEPARTURES}
+        for kind, params in item.params.items():
+            for preset in PRESETS:
+                current = preset_params(preset, kind)
+                for param, value in params.items():
+                    assert param in current and current[param] != value
+        for name in item.paired:
+            assert check_row_name(name) == name
+    with pytest.raises(ConfigError, match="unknown option 'gru'"):
+        option("gru")

@@ -549,8 +549,10 @@ def parse_start(text: str, arena: bool = True) -> dict[str, float]:
 def model_params(
     kinds: tuple[str, ...], preset: str | None, config: Path | None, sets: list[str] | None
 ) -> tuple[str, dict[str, dict[str, Any]]]:
-    """Effective model parameters from ``--preset``, ``--config`` and ``--set`` (checked)."""
-    from behavior_hmm.models import CBLM, SBLM, read_config, resolve_params
+    """The preset's name and the effective model parameters from ``--preset``, ``--config``
+    and ``--set`` (checked); with changes over the preset, the name says them
+    (``"default + generator_network='elman'"``, :func:`describe_params`)."""
+    from behavior_hmm.models import CBLM, SBLM, describe_params, read_config, resolve_params
     from behavior_hmm.models._config import parse_sets
 
     table = read_config(config) if config is not None else None
@@ -560,6 +562,11 @@ def model_params(
     for kind, values in params.items():  # ranges and choices, before any work
         {"SBLM": SBLM, "CBLM": CBLM}[kind](**values).check_params()
     log.debug("preset %s; parameters %s", name, params)
+    if table is not None or sets:
+        # a score is never shown under a preset's name it does not have: name the changes
+        named = dict.fromkeys(describe_params(kind, values) for kind, values in params.items())
+        if list(named) != [name]:
+            name = "; ".join(named)
     return name, params
 
 

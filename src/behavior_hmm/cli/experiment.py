@@ -225,7 +225,9 @@ def experiment_ablation(
     task: TaskOption = None,
     departure: Annotated[
         list[str] | None,
-        typer.Option(help="Only this departure's rows (repeatable), e.g. onset_clock"),
+        typer.Option(
+            help="Only this departure's or option's rows (repeatable), e.g. onset_clock, elman"
+        ),
     ] = None,
     workers: WorkersOption = None,
     executor: ExecutorOption = "local",
@@ -234,9 +236,11 @@ def experiment_ablation(
 ) -> None:
     """What each departure from the thesis buys: thesis, thesis + each, default, default - each.
 
-    Every row is trained on the same demonstrations and scored from the test starts,
-    beside the all-zero floor. With --seeds K each row is trained and scored K times
-    (seeds SEED..SEED+K-1, one demonstration set) and reported as mean ± 95 % interval.
+    Then default + each option it leaves off (recurrent generators: elman), alone and
+    with its paired departure switched off. Every row is trained on the same
+    demonstrations and scored from the test starts, beside the all-zero floor. With
+    --seeds K each row is trained and scored K times (seeds SEED..SEED+K-1, one
+    demonstration set) and reported as mean ± 95 % interval.
     Writes results.json, timings.json, table.md and ablation.png.
 
     Example: behavior-hmm experiment ablation --sim kinematic --task turn --seeds 3 -o results/abl
@@ -245,7 +249,7 @@ def experiment_ablation(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._ablation import run_ablation
     from behavior_hmm.evaluate._ablation import task as ablation_task
-    from behavior_hmm.models._presets import departure as named_departure
+    from behavior_hmm.models._presets import check_row_name
     from behavior_hmm.viz._ablation import write_ablation_report
 
     check_sim(sim)
@@ -253,7 +257,7 @@ def experiment_ablation(
     check_noise(noise)
     check_outputs({}, {}, folders={"-o": out})
     for name in departure or []:
-        named_departure(name)  # refuse bad names before any work
+        check_row_name(name)  # refuse bad names before any work
     for name in task or []:
         ablation_task(name)
     check_seeds(seeds)

@@ -2,7 +2,9 @@
 
 For each task (turn {angle}, approach {distance, angle}, turn & approach) the rows are:
 the thesis preset; the thesis preset plus each departure alone; the default preset; the
-default minus each departure (that one at its thesis value). Only departures that touch
+default minus each departure (that one at its thesis value); the default plus each
+option the default leaves off (thesis §7.2's future work, ``OPTIONS``: recurrent
+generators), alone and without its paired departures. Only departures that touch
 the task's models are listed: an SBLM task has no CBLM departures. Every row is trained
 on the same demonstrations and evaluated from the task's test starts (DESIGN §6), beside
 the all-zero floor.
@@ -26,7 +28,14 @@ from behavior_hmm.errors import ConfigError
 from behavior_hmm.evaluate._executor import Executor, SerialExecutor
 from behavior_hmm.evaluate._experiments import _collect_task, check_seeds, over_seeds
 from behavior_hmm.evaluate._protocol import evaluate_model
-from behavior_hmm.models._presets import DEPARTURES, KINDS, departure, preset_params
+from behavior_hmm.models._presets import (
+    DEPARTURES,
+    KINDS,
+    OPTIONS,
+    check_row_name,
+    option,
+    preset_params,
+)
 
 Progress = Callable[[int, int], None]
 
@@ -62,22 +71,31 @@ ABLATION_TASKS: Final[tuple[AblationTask, ...]] = (
 
 @dataclass(frozen=True)
 class AblationRow:
-    """One row: a preset with some departures switched to the other preset's value."""
+    """One row: a preset with some departures switched to the other preset's value,
+    and some options (:data:`~behavior_hmm.models._presets.OPTIONS`) on."""
 
     preset: str
     switched: tuple[str, ...] = ()
+    options: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
-        """``thesis``, ``thesis + onset_clock``, ``default``, ``default − onset_clock``."""
-        if not self.switched:
-            return self.preset
-        sign = "+" if self.preset == "thesis" else "−"
-        return f"{self.preset} {sign} {', '.join(self.switched)}"
+        """``thesis``, ``thesis + onset_clock``, ``default``, ``default − onset_clock``,
+        ``default + elman``, ``default − onset_clock + elman``."""
+        label = self.preset
+        if self.switched:
+            sign = "+" if self.preset == "thesis" else "−"
+            label += f" {sign} {', '.join(self.switched)}"
+        if self.options:
+            label += f" + {', '.join(self.options)}"
+        return label
 
     def params(self, kind: str) -> dict[str, Any]:
         """Constructor parameters of ``kind`` in this row."""
-        return preset_params(self.preset, kind, switch=self.switched)
+        params = preset_params(self.preset, kind, switch=self.switched)
+        for name in self.options:
+            params.update(option(name).params.get(kind, {}))
+        return params
 
 
 def task(name: str) -> AblationTask:
@@ -90,11 +108,13 @@ def task(name: str) -> AblationTask:
 
 
 def ablation_rows(item: AblationTask, departures: Iterable[str] | None = None) -> list[AblationRow]:
-    """The rows of ``item``: thesis, thesis + each, default, default − each.
+    """The rows of ``item``: thesis, thesis + each, default, default − each, then
+    default + each option (and default − d + the option, for its paired departures).
 
-    ``departures`` restricts the single-departure rows to those names (all by default).
+    ``departures`` restricts the single-departure and option rows to those names (all
+    by default).
     """
-    wanted = None if departures is None else {departure(n).name for n in departures}
+    wanted = None if departures is None else {check_row_name(n) for n in departures}
     names = [
         d.name
         for d in DEPARTURES
@@ -104,6 +124,10 @@ def ablation_rows(item: AblationTask, departures: Iterable[str] | None = None) -
     rows += [AblationRow("thesis", (n,)) for n in names]
     rows.append(AblationRow("default"))
     rows += [AblationRow("default", (n,)) for n in names]
+    for extra in OPTIONS:
+        if any(k in extra.kinds for k in item.kinds) and (wanted is None or extra.name in wanted):
+            rows.append(AblationRow("default", options=(extra.name,)))
+            rows += [AblationRow("default", (d,), (extra.name,)) for d in extra.paired]
     return rows
 
 
@@ -164,7 +188,7 @@ def run_ablation(
     tasks
         Task names (default: all of :data:`ABLATION_TASKS`).
     departures
-        Restrict the single-departure rows to these departures (default: all; an empty
+        Restrict the single-departure and option rows to these names (default: all; an empty
         list leaves the thesis and default rows only).
     progress
         Called with (tasks done, tasks in all): collections, SBLM fits and rows.
@@ -269,6 +293,7 @@ def run_ablation(
                         "label": row.label,
                         "preset": row.preset,
                         "switched": list(row.switched),
+                        "options": list(row.options),
                         **outcome["summary"],
                     }
                 )

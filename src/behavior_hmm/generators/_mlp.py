@@ -467,14 +467,30 @@ def _adam_step(
     all_active: bool,
     adam: tuple[float, float, float],
 ) -> None:
-    """One Adam update of the slots in ``v`` (``v.grad``: each slot's mean gradient).
+    """One Adam update of the slots in ``v`` (``v.grad``: each slot's mean gradient)."""
+    adam_update(
+        v.theta, v.grad, v.velocity, v.second, steps, learning_rate, active, all_active, adam
+    )
 
-    ``steps`` (a view of the slots' step counts) is advanced in place for the active
-    slots; inactive slots keep their weights, moments and count.
+
+def adam_update(
+    theta: FloatArray,
+    g: FloatArray,
+    m: FloatArray,
+    s: FloatArray,
+    steps: FloatArray,
+    learning_rate: FloatArray,
+    active: NDArray[np.bool_],
+    all_active: bool,
+    adam: tuple[float, float, float],
+) -> None:
+    """One Adam update, in place, of the slots' weights ``theta (P, n)`` by gradients ``g``.
+
+    ``m``, ``s`` are the first and second moments and ``steps`` (P,) each slot's step
+    count, advanced in place for the ``active`` slots; inactive slots keep their
+    weights, moments and count (``all_active``: every slot is, the fast path).
     """
     beta1, beta2, epsilon = adam
-    g = v.grad
-    m, s = v.velocity, v.second
     if all_active:
         steps += 1.0
         m *= beta1
@@ -485,7 +501,7 @@ def _adam_step(
         update = m / (1.0 - beta1**t)
         update /= np.sqrt(s / (1.0 - beta2**t)) + epsilon
         update *= learning_rate[:, None]
-        v.theta -= update
+        theta -= update
         return
     on = active.astype(np.float64)[:, None]
     steps += on[:, 0]
@@ -498,4 +514,4 @@ def _adam_step(
     update = m / (1.0 - beta1**t)
     update /= np.sqrt(s / (1.0 - beta2**t)) + epsilon
     update *= (learning_rate * on[:, 0])[:, None]
-    v.theta -= update
+    theta -= update

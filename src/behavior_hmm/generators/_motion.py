@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, NoReturn
 
 import numpy as np
@@ -300,19 +300,10 @@ class MotionGenerators(Estimator):
         """
         self._check_fitted()
         self._validated_params()
-        _check_int("update", update, 1)
-        if primitives is None:
-            raise ConfigError("partial_fit needs the primitive of every row")
-        x, y, prim, n_prim, group = _check_fit_inputs(X, Y, primitives, n_primitives, groups)
-        if x.shape[1] != self.n_features_in_ or y.shape[1] != self.n_outputs_:
-            raise ConfigError(
-                f"X and Y have {x.shape[1]} features and {y.shape[1]} outputs, the generators "
-                f"{self.n_features_in_} and {self.n_outputs_}"
-            )
+        x, y, prim, n_prim, group = check_update_inputs(
+            self, X, Y, primitives, n_primitives, groups, update
+        )
         old_n = self.n_primitives_
-        if n_primitives is not None and n_prim < old_n:
-            raise ConfigError(f"n_primitives={n_prim} is fewer than the fitted {old_n}")
-        n_prim = max(n_prim, old_n)
         sizes = (self.n_features_in_, *self.hidden_sizes_, self.n_outputs_)
         size = n_params(sizes)
         which = np.unique(prim)
@@ -322,11 +313,7 @@ class MotionGenerators(Estimator):
         for i, p in enumerate(which.tolist()):
             rows = np.flatnonzero(prim == p)
             warm = p < old_n and bool(self.trained_[p])
-            if warm:
-                seq = np.random.SeedSequence(int(self.random_state), spawn_key=(p, int(update)))
-                rng = np.random.default_rng(seq)
-            else:
-                rng = primitive_rng(int(self.random_state), p)
+            rng = update_rng(int(self.random_state), p, update, warm)
             rngs.append(rng)
             # the draws in fit's order: split, initial weights, each epoch's order
             splits.append(
@@ -343,9 +330,7 @@ class MotionGenerators(Estimator):
         weights = layer_views(result.theta, sizes)
 
         def grown(arr: NDArray[Any], fill: Any) -> NDArray[Any]:
-            out = np.full((n_prim, *arr.shape[1:]), fill, dtype=arr.dtype)
-            out[:old_n] = arr
-            return out
+            return grow(arr, n_prim, fill)
 
         coefs = [grown(c, 0.0) for c in self.coefs_]
         intercepts = [grown(b, 0.0) for b in self.intercepts_]
@@ -437,6 +422,11 @@ class MotionGenerators(Estimator):
             ) from None
         return a
 
+    def stepper(self) -> FeedforwardStepper:
+        """A closed-loop runner with the recurrent generators' interface (no state here)."""
+        self._check_fitted()
+        return FeedforwardStepper(self)
+
     def predict(self, X: ArrayLike, primitive: int | ArrayLike = 0) -> NDArray[np.float64]:
         """Commands for a batch of windows.
 
@@ -513,6 +503,19 @@ class MotionGenerators(Estimator):
         return model
 
 
+class FeedforwardStepper:
+    """Runs :class:`MotionGenerators` in closed loop: ``step(row, primitive)`` is
+    :meth:`MotionGenerators.predict_one` (a feed-forward network keeps no state), and
+    ``reset`` does nothing; the interface of
+    :class:`~behavior_hmm.generators._recurrent.ElmanStepper`."""
+
+    def __init__(self, generators: MotionGenerators) -> None:
+        self.step = generators.predict_one
+
+    def reset(self) -> None:
+        """Nothing to forget."""
+
+
 class AdamGenerators(MotionGenerators):
     """:class:`MotionGenerators` trained with Adam instead of gradient descent with momentum.
 
@@ -584,6 +587,49 @@ class AdamGenerators(MotionGenerators):
 def primitive_rng(random_state: int, primitive: int) -> np.random.Generator:
     """The generator of one primitive: independent of how many primitives there are."""
     return np.random.default_rng(np.random.SeedSequence(random_state, spawn_key=(primitive,)))
+
+
+def update_rng(random_state: int, primitive: int, update: int, warm: bool) -> np.random.Generator:
+    """The draws of one primitive in a ``partial_fit``: a fine-tuned (``warm``) network's
+    from ``SeedSequence(random_state, spawn_key=(primitive, update))``, a new one's as
+    :meth:`MotionGenerators.fit` draws them."""
+    if warm:
+        seq = np.random.SeedSequence(random_state, spawn_key=(primitive, int(update)))
+        return np.random.default_rng(seq)
+    return primitive_rng(random_state, primitive)
+
+
+def grow(arr: NDArray[Any], n: int, fill: Any) -> NDArray[Any]:
+    """``arr`` with rows appended up to ``n``, each ``fill`` (a grown stack of primitives)."""
+    out = np.full((n, *arr.shape[1:]), fill, dtype=arr.dtype)
+    out[: arr.shape[0]] = arr
+    return out
+
+
+def check_update_inputs(
+    model: Any,
+    X: ArrayLike,
+    Y: ArrayLike,
+    primitives: ArrayLike | None,
+    n_primitives: int | None,
+    groups: ArrayLike | None,
+    update: Any,
+) -> tuple[FloatArray, FloatArray, NDArray[np.int64], int, NDArray[Any] | None]:
+    """``partial_fit``'s checked inputs for fitted generators ``model`` of either kind, with
+    the number of primitives after the update (at least the fitted ``n_primitives_``)."""
+    _check_int("update", update, 1)
+    if primitives is None:
+        raise ConfigError("partial_fit needs the primitive of every row")
+    x, y, prim, n_prim, group = _check_fit_inputs(X, Y, primitives, n_primitives, groups)
+    if x.shape[1] != model.n_features_in_ or y.shape[1] != model.n_outputs_:
+        raise ConfigError(
+            f"X and Y have {x.shape[1]} features and {y.shape[1]} outputs, the generators "
+            f"{model.n_features_in_} and {model.n_outputs_}"
+        )
+    old_n = int(model.n_primitives_)
+    if n_primitives is not None and n_prim < old_n:
+        raise ConfigError(f"n_primitives={n_prim} is fewer than the fitted {old_n}")
+    return x, y, prim, max(n_prim, old_n), group
 
 
 def init_weights(rng: np.random.Generator, sizes: tuple[int, ...], init_range: float) -> FloatArray:
@@ -741,23 +787,31 @@ def _pad(
     return xs, ys
 
 
-def _load_arrays(model: MotionGenerators, arrays: Mapping[str, Any]) -> None:
-    """Validate ``arrays`` (from :meth:`MotionGenerators.to_arrays`) into ``model``."""
+#: The per-primitive bookkeeping arrays both generator kinds save beside their weights.
+BOOKKEEPING: tuple[str, ...] = (
+    "trained",
+    "n_train",
+    "n_test",
+    "best_epoch",
+    "train_error",
+    "test_error",
+)
+
+
+def array_getter(
+    arrays: Mapping[str, Any], weights: set[str], label: str
+) -> Callable[[str, str, int], NDArray[Any]]:
+    """Check that ``arrays`` holds exactly ``weights`` and :data:`BOOKKEEPING`; return a
+    getter ``get(name, kinds, ndim)`` that checks one array's dtype kind and rank."""
     if not isinstance(arrays, Mapping):
-        raise ModelFileError("motion generator arrays must be a mapping of name to array")
-    n_layers = 0
-    while f"coef_{n_layers}" in arrays:
-        n_layers += 1
-    if n_layers == 0:
-        raise ModelFileError("motion generator arrays have no 'coef_0'")
-    expected = {f"coef_{i}" for i in range(n_layers)} | {f"intercept_{i}" for i in range(n_layers)}
-    expected |= {"trained", "n_train", "n_test", "best_epoch", "train_error", "test_error"}
+        raise ModelFileError(f"{label} arrays must be a mapping of name to array")
+    expected = weights | set(BOOKKEEPING)
     missing = sorted(expected - set(arrays))
     extra = sorted(str(k) for k in set(arrays) - expected)
     if missing:
-        raise ModelFileError(f"motion generator arrays lack {', '.join(missing)}")
+        raise ModelFileError(f"{label} arrays lack {', '.join(missing)}")
     if extra:
-        raise ModelFileError(f"unexpected motion generator arrays: {', '.join(extra)}")
+        raise ModelFileError(f"unexpected {label} arrays: {', '.join(extra)}")
 
     def get(name: str, kinds: str, ndim: int) -> NDArray[Any]:
         value = arrays[name]
@@ -767,6 +821,51 @@ def _load_arrays(model: MotionGenerators, arrays: Mapping[str, Any]) -> None:
             raise ModelFileError(f"'{name}' must be {ndim}-D, got shape {value.shape}")
         return value
 
+    return get
+
+
+def set_bookkeeping(
+    model: Any, get: Callable[[str, str, int], NDArray[Any]], n_prim: int, epochs: int
+) -> None:
+    """Check the :data:`BOOKKEEPING` arrays of ``n_prim`` primitives trained ``epochs``
+    epochs and set them on ``model`` (``trained_``, ``n_train_``, ...)."""
+    trained = get("trained", "b", 1)
+    counts = {name: get(name, "iu", 1).astype(np.int64) for name in ("n_train", "n_test")}
+    best_epoch = get("best_epoch", "iu", 1).astype(np.int64)
+    curves = {name: get(name, "f", 2).astype(np.float64) for name in ("train_error", "test_error")}
+    for name, value in [("trained", trained), *counts.items(), ("best_epoch", best_epoch)]:
+        if value.shape != (n_prim,):
+            raise ModelFileError(f"'{name}' must have shape ({n_prim},), got {value.shape}")
+    for name, curve in curves.items():
+        if curve.shape != (n_prim, epochs):
+            raise ModelFileError(
+                f"'{name}' must have shape ({n_prim}, {epochs}), got {curve.shape}"
+            )
+        if np.isinf(curve).any() or (curve < 0).any():
+            raise ModelFileError(f"'{name}' holds negative or infinite errors")
+    if (counts["n_train"] < 0).any() or (counts["n_test"] < 0).any():
+        raise ModelFileError("sample counts must be non-negative")
+    if not np.array_equal(trained, counts["n_train"] > 0):
+        raise ModelFileError("'trained' disagrees with 'n_train'")
+    if ((best_epoch < -1) | (best_epoch >= epochs)).any():
+        raise ModelFileError("'best_epoch' out of range")
+    model.trained_ = trained.astype(bool)
+    model.n_train_ = counts["n_train"]
+    model.n_test_ = counts["n_test"]
+    model.best_epoch_ = best_epoch
+    model.train_error_ = curves["train_error"]
+    model.test_error_ = curves["test_error"]
+
+
+def _load_arrays(model: MotionGenerators, arrays: Mapping[str, Any]) -> None:
+    """Validate ``arrays`` (from :meth:`MotionGenerators.to_arrays`) into ``model``."""
+    n_layers = 0
+    while isinstance(arrays, Mapping) and f"coef_{n_layers}" in arrays:
+        n_layers += 1
+    if isinstance(arrays, Mapping) and n_layers == 0:
+        raise ModelFileError("motion generator arrays have no 'coef_0'")
+    weights = {f"coef_{i}" for i in range(n_layers)} | {f"intercept_{i}" for i in range(n_layers)}
+    get = array_getter(arrays, weights, "motion generator")
     coefs = [get(f"coef_{i}", "f", 3).astype(np.float64) for i in range(n_layers)]
     intercepts = [get(f"intercept_{i}", "f", 2).astype(np.float64) for i in range(n_layers)]
     n_prim = coefs[0].shape[0]
@@ -779,36 +878,11 @@ def _load_arrays(model: MotionGenerators, arrays: Mapping[str, Any]) -> None:
             raise ModelFileError(f"layer {i} input size does not match layer {i - 1} output")
         if not (np.isfinite(w).all() and np.isfinite(b).all()):
             raise ModelFileError(f"layer {i} weights are not finite")
-    trained = get("trained", "b", 1)
-    counts = {name: get(name, "iu", 1).astype(np.int64) for name in ("n_train", "n_test")}
-    best_epoch = get("best_epoch", "iu", 1).astype(np.int64)
-    curves = {name: get(name, "f", 2).astype(np.float64) for name in ("train_error", "test_error")}
-    for name, value in [("trained", trained), *counts.items(), ("best_epoch", best_epoch)]:
-        if value.shape != (n_prim,):
-            raise ModelFileError(f"'{name}' must have shape ({n_prim},), got {value.shape}")
-    for name, curve in curves.items():
-        if curve.shape != (n_prim, model.epochs):
-            raise ModelFileError(
-                f"'{name}' must have shape ({n_prim}, {model.epochs}), got {curve.shape}"
-            )
-        if np.isinf(curve).any() or (curve < 0).any():
-            raise ModelFileError(f"'{name}' holds negative or infinite errors")
-    if (counts["n_train"] < 0).any() or (counts["n_test"] < 0).any():
-        raise ModelFileError("sample counts must be non-negative")
-    if not np.array_equal(trained, counts["n_train"] > 0):
-        raise ModelFileError("'trained' disagrees with 'n_train'")
-    if ((best_epoch < -1) | (best_epoch >= model.epochs)).any():
-        raise ModelFileError("'best_epoch' out of range")
+    set_bookkeeping(model, get, n_prim, model.epochs)
     hidden = tuple(int(w.shape[2]) for w in coefs[:-1])
     if hidden != _hidden_tuple(model.hidden, coefs[0].shape[1], model.window):
         raise ModelFileError(f"hidden layer sizes {hidden} disagree with the parameters")
 
     model.coefs_ = [np.ascontiguousarray(w) for w in coefs]
     model.intercepts_ = [np.ascontiguousarray(b) for b in intercepts]
-    model.trained_ = trained.astype(bool)
-    model.n_train_ = counts["n_train"]
-    model.n_test_ = counts["n_test"]
-    model.best_epoch_ = best_epoch
-    model.train_error_ = curves["train_error"]
-    model.test_error_ = curves["test_error"]
     model._set_shapes()

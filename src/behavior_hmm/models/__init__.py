@@ -2,7 +2,8 @@
 
 Both are selectable in two presets (DESIGN §10): ``SBLM.from_preset("thesis", ...)`` is the
 method as published; the constructor defaults are the ``default`` preset. Every departure
-is listed in :data:`DEPARTURES`.
+is listed in :data:`DEPARTURES`; the measured options the default leaves off (recurrent
+generators) in :data:`OPTIONS`.
 """
 
 from behavior_hmm.models._cblm import CBLM
@@ -12,8 +13,10 @@ from behavior_hmm.models._load import MODEL_KINDS, load
 from behavior_hmm.models._policy import perform
 from behavior_hmm.models._presets import (
     DEPARTURES,
+    OPTIONS,
     PRESETS,
     Departure,
+    Option,
     describe_params,
     preset_params,
 )
@@ -23,10 +26,12 @@ __all__ = [
     "CBLM",
     "DEPARTURES",
     "MODEL_KINDS",
+    "OPTIONS",
     "PRESETS",
     "SBLM",
     "Departure",
     "InputChoice",
+    "Option",
     "describe_params",
     "load",
     "perform",

@@ -261,7 +261,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prim_live = model.primitives_.stream()
         self._prim_miss = self._prim_live.mismatch  # 1 - score of every primitive (live)
         self._hmm = model.hmm_
-        self._gens = model.generators_
+        self._generator = model.generators_.stepper()
         self._scale = np.asarray(model.command_scales_, dtype=np.float64)
         self._held = model.held_mask if getattr(model, "held_commands_", ()) else None
         norm = model.pipeline_.normalizer
@@ -308,6 +308,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._alpha = self._log_pi.copy()
         self._prior = self._log_pi
         self._features.reset()
+        self._generator.reset()
         self._limit_reset()
         self._brake_reset()
 
@@ -466,7 +467,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         changed = state != self._state
         self._state = state
         self._started = True
-        y = self._gens.predict_one(self._features.row(), state)
+        y = self._generator.step(self._features.row(), state)
         if self._held is not None:  # commands its demonstrations never moved stay at rest
             y = np.where(self._held, self._rest_command / self._scale, y)
         y = self._features.commit(y)

@@ -202,6 +202,70 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
 )
 
 
+@dataclass(frozen=True)
+class Option:
+    """An option the default preset leaves at the thesis's value, measured beside it.
+
+    Thesis §7.2's future work, built as parameters: ``experiment ablation`` scores each
+    as a ``default + name`` row (and ``default − d + name`` for each departure ``d`` in
+    ``paired``), so it becomes the default only where it measures better.
+
+    Parameters
+    ----------
+    name
+        Row label in the ablation table.
+    params
+        ``{kind: {parameter: value}}`` the option sets.
+    summary
+        What it does, in a few words.
+    paired
+        Departures also switched off beside it in a row of their own.
+    """
+
+    name: str
+    params: Mapping[str, Mapping[str, Any]]
+    summary: str
+    paired: tuple[str, ...] = ()
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """Model kinds this option touches."""
+        return tuple(self.params)
+
+
+#: The measured options that are not the default (ablation rows ``default + name``).
+OPTIONS: Final[tuple[Option, ...]] = (
+    Option(
+        "elman",
+        {"SBLM": {"generator_network": "elman"}},
+        "recurrent Elman generators trained by backpropagation through time (thesis 3.4.3)",
+        paired=("onset_clock",),
+    ),
+)
+
+
+def option(name: str) -> Option:
+    """The option called ``name`` (a did-you-mean error otherwise)."""
+    for item in OPTIONS:
+        if item.name == name:
+            return item
+    from behavior_hmm.models._config import did_you_mean
+
+    raise ConfigError(f"unknown option {name!r}{did_you_mean(name, [o.name for o in OPTIONS])}")
+
+
+def check_row_name(name: str) -> str:
+    """``name`` if it names a departure or an option (the ablation's rows), else an error."""
+    if any(item.name == name for item in OPTIONS):
+        return name
+    known = [d.name for d in DEPARTURES] + [o.name for o in OPTIONS]
+    if not any(item.name == name for item in DEPARTURES):
+        from behavior_hmm.models._config import did_you_mean
+
+        raise ConfigError(f"unknown departure or option {name!r}{did_you_mean(name, known)}")
+    return name
+
+
 def _model_class(kind: str) -> Any:
     if kind == "SBLM":
         from behavior_hmm.models._sblm import SBLM

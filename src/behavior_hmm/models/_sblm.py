@@ -22,7 +22,12 @@ from behavior_hmm.data import (
 )
 from behavior_hmm.data._channels import ChannelSpec
 from behavior_hmm.errors import ConfigError, ModelFileError, UnreachableGoalError
-from behavior_hmm.generators import DEFAULT_GENERATOR_EPOCHS, MotionGenerators
+from behavior_hmm.generators import (
+    DEFAULT_GENERATOR_EPOCHS,
+    GENERATOR_NETWORKS,
+    ElmanGenerators,
+    MotionGenerators,
+)
 from behavior_hmm.generators._features import (
     DEFAULT_ONSET_CLOCK,
     FeatureLayout,
@@ -108,6 +113,16 @@ class SBLM(LearnedBehavior):
         copy); 0 (default) gives the thesis's sensor-only networks. With a copy, a
         generator learns ``u[t] ≈ g(u[t-1])`` with gain above 1 on the demonstrations'
         accelerating ramps, so in closed loop small errors grow (wrong-sign starts).
+    generator_network
+        ``"mlp"`` (default, thesis): each primitive's generator is a feed-forward tanh
+        network reading the current feature row. ``"elman"``: a recurrent Elman network
+        (thesis §3.4.3, proposed in §7.2) reading the same row, whose context carries
+        the rows seen since its primitive took over; trained by backpropagation through
+        time on each segment (with its ``segment_margin`` rows) with Adam at
+        ``learning_rate``, 8 segments per update (``batch_size`` and ``momentum`` are
+        the feed-forward networks'), and run from an empty context that first replays
+        the last ``segment_margin`` rows whenever its primitive takes over
+        (:class:`~behavior_hmm.generators.ElmanGenerators`).
     generator_output
         ``"command"``: each network outputs the normalized wheel commands (thesis);
         ``"delta"``: it outputs the change of the commands since the last cycle, in
@@ -193,7 +208,7 @@ class SBLM(LearnedBehavior):
     observations_ : CobART
         Observation-category network (compacted likewise).
     hmm_ : BehaviorHMM
-    generators_ : MotionGenerators
+    generators_ : MotionGenerators or ElmanGenerators
     command_scale_ : float
         Largest absolute wheel command (rad/s) in the (nominal) training demonstrations.
     command_rates_ : ndarray of shape (n_commands, n_inputs)
@@ -236,6 +251,7 @@ class SBLM(LearnedBehavior):
         batch_size: int = 32,
         generator_test_fraction: float = 0.2,
         command_history: int = 0,
+        generator_network: str = "mlp",
         generator_output: str = "command",
         state_decoding: str = "history",
         primitive_recognition: bool = True,
@@ -264,6 +280,7 @@ class SBLM(LearnedBehavior):
         self.batch_size = batch_size
         self.generator_test_fraction = generator_test_fraction
         self.command_history = command_history
+        self.generator_network = generator_network
         self.generator_output = generator_output
         self.state_decoding = state_decoding
         self.primitive_recognition = primitive_recognition
@@ -304,6 +321,16 @@ class SBLM(LearnedBehavior):
         check_input_names(inputs, available)
         if len(set(inputs)) != len(inputs):
             raise ConfigError(f"inputs repeat a channel: {inputs}")
+        if self.generator_network not in GENERATOR_NETWORKS:
+            raise ConfigError(
+                f"generator_network must be one of {', '.join(GENERATOR_NETWORKS)}, "
+                f"got {self.generator_network!r}"
+            )
+        if self.generator_network == "elman" and not isinstance(self.hidden, int):
+            raise ConfigError(
+                f"generator_network='elman' has one hidden layer: hidden must be an "
+                f"integer, got {self.hidden!r}"
+            )
         if self.generator_output not in ("command", "delta"):
             raise ConfigError(
                 f"generator_output must be 'command' or 'delta', got {self.generator_output!r}"
@@ -394,25 +421,35 @@ class SBLM(LearnedBehavior):
         layout = self.feature_layout(len(inputs), int(prim.window), delta_scale)
         features = layout.offline(x, y, lengths)
         target = y if self.generator_output == "command" else np.clip(step / delta_scale, -1, 1)
-        features, target, gen_states, groups = self._generator_rows(
+        features, target, gen_states, groups, starts = self._generator_rows(
             features, target, states, lengths, dataset.episode_ids
         )
-        gens = MotionGenerators(
-            window=int(prim.window),
-            hidden=self._hidden(len(inputs)),
-            learning_rate=self.learning_rate,
-            momentum=self.momentum,
-            epochs=self.epochs,
-            batch_size=self.batch_size,
-            test_fraction=float(self.generator_test_fraction),
-            early_stopping=self.generator_test_fraction > 0,
-            random_state=self.random_state,
-        ).fit(
+        common: dict[str, Any] = {
+            "window": int(prim.window),
+            "learning_rate": self.learning_rate,
+            "epochs": self.epochs,
+            "test_fraction": float(self.generator_test_fraction),
+            "early_stopping": self.generator_test_fraction > 0,
+            "random_state": self.random_state,
+        }
+        gens: MotionGenerators | ElmanGenerators
+        if self.generator_network == "elman":
+            hidden = cast(int, self._hidden(len(inputs)))
+            gens = ElmanGenerators(hidden=hidden, warmup=int(self.segment_margin), **common)
+        else:
+            gens = MotionGenerators(
+                hidden=self._hidden(len(inputs)),
+                momentum=self.momentum,
+                batch_size=self.batch_size,
+                **common,
+            )
+        gens.fit(
             features,
             target,
             gen_states,
             n_primitives=prim.n_categories_,
             groups=groups,
+            **_sequences(gens, starts),
         )
         self.observations_ = obs
         self.hmm_ = hmm
@@ -553,11 +590,11 @@ class SBLM(LearnedBehavior):
             target = y
         else:
             target = np.clip(step / self.delta_scale_, -1, 1)
-        features, target, gen_states, groups = self._generator_rows(
+        features, target, gen_states, groups, starts = self._generator_rows(
             features, target, states, lengths, dataset.episode_ids
         )
         old = self.generators_
-        gens = MotionGenerators.from_arrays(old.to_arrays(), **old.get_params())
+        gens = type(old).from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
         gens.partial_fit(
             features,
@@ -566,6 +603,7 @@ class SBLM(LearnedBehavior):
             n_primitives=prim.n_categories_,
             groups=groups,
             update=len(updates) + 1,
+            **_sequences(gens, starts),
         )
         finals = dataset.offsets[1:] - 1
         raw = dataset.columns(inputs)
@@ -660,19 +698,28 @@ class SBLM(LearnedBehavior):
         states: Any,
         lengths: Any,
         episode_ids: Any,
-    ) -> tuple[FloatArray, FloatArray, Any, Any]:
+    ) -> tuple[FloatArray, FloatArray, Any, Any, NDArray[np.intp]]:
         """The generators' training rows: features, targets, primitive and episode of each
-        (``segment_margin`` rows around each primitive, ``window_noise`` copies)."""
+        (``segment_margin`` rows around each primitive, ``window_noise`` copies), and the
+        first row of each sequence (consecutive demonstration rows of one primitive: a
+        recurrent generator's training sequences)."""
         gen_states = states
         groups = np.repeat(episode_ids, lengths)
+        source = np.arange(features.shape[0])
         if self.segment_margin > 0:
             rows, gen_states = margin_rows(states, lengths, int(self.segment_margin))
             features, target, groups = features[rows], target[rows], groups[rows]
+            source = rows
         if self.window_noise > 0:
             features, target, gen_states, groups = self._noisy_copies(
                 features, target, gen_states, groups
             )
-        return features, target, gen_states, groups
+            source = np.concatenate([source, source])
+        states_arr = np.asarray(gen_states)
+        breaks = (np.diff(source) != 1) | (states_arr[1:] != states_arr[:-1])
+        breaks |= groups[1:] != groups[:-1]
+        starts = np.r_[0, np.flatnonzero(breaks) + 1].astype(np.intp)
+        return features, target, gen_states, groups, starts
 
     def _noisy_copies(
         self, features: FloatArray, target: FloatArray, states: Any, groups: Any
@@ -846,7 +893,7 @@ class SBLM(LearnedBehavior):
         rows = {
             "prim.prototypes": hmm.n_states_,
             "obs.prototypes": hmm.n_observations_,
-            "gen.coef_0": hmm.n_states_,
+            "gen.w_x" if model.generator_network == "elman" else "gen.coef_0": hmm.n_states_,
         }
         for name, n in rows.items():
             arr = _modelfile.check_array(arrays, name, kind="biuf", finite=False)
@@ -854,7 +901,9 @@ class SBLM(LearnedBehavior):
                 raise ModelFileError(f"array '{name}' does not have the HMM's {n} rows")
         prim = _cobart_from(state["primitives"], arrays, "prim", len(inputs))
         obs = _cobart_from(state["observations"], arrays, "obs", len(inputs))
-        gens = MotionGenerators.from_arrays(_prefixed(arrays, "gen"), **state["generators"])
+        gens = GENERATOR_NETWORKS[model.generator_network].from_arrays(
+            _prefixed(arrays, "gen"), **state["generators"]
+        )
         model._restore_commands(state)
         if hmm.n_states_ != prim.n_categories_ or hmm.n_observations_ != obs.n_categories_:
             raise ModelFileError("HMM sizes do not match the CobART categories")
@@ -894,6 +943,11 @@ class SBLM(LearnedBehavior):
                 raise ModelFileError("array 'command_rates' holds absurd values")
             model.command_rates_ = np.array(rates, dtype=np.float64)
         return model
+
+
+def _sequences(gens: Any, starts: NDArray[np.intp]) -> dict[str, Any]:
+    """The training sequences' starts, for generators that train on sequences (recurrent)."""
+    return {"sequences": starts} if isinstance(gens, ElmanGenerators) else {}
 
 
 def nominal_episodes(dataset: Dataset) -> NDArray[np.bool_]:

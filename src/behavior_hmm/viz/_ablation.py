@@ -45,7 +45,7 @@ def ablation_markdown(results: dict[str, Any]) -> str:
         lines.append("| --- | --- | --- | --- | --- | --- | --- |")
         for row, took in zip(entry["rows"], seconds, strict=True):
             label = row["label"]
-            if not row["switched"]:
+            if not row["switched"] and not row.get("options"):
                 label = f"**{label} preset**"
             if "over_seeds" in row:
                 success = _spread(row["over_seeds"], "success_rate_mean")
@@ -84,7 +84,14 @@ def plot_ablation(results: dict[str, Any]) -> Figure:
         spread = [_over_seeds(r) for r in rows]
         values = [v[0] for v in spread]
         errors = [v[1] for v in spread]
-        colours = ["tab:orange" if r["preset"] == "thesis" else "tab:blue" for r in rows]
+        colours = [
+            "tab:orange"
+            if r["preset"] == "thesis"
+            else "tab:green"
+            if r.get("options")
+            else "tab:blue"
+            for r in rows
+        ]
         positions = list(range(len(rows)))[::-1]
         ax.barh(positions, values, xerr=errors, color=colours, alpha=0.85, error_kw={"lw": 0.8})
         for y, row, (value, error, goals) in zip(positions, rows, spread, strict=True):
@@ -103,8 +110,8 @@ def plot_ablation(results: dict[str, Any]) -> Figure:
         ax.set_xlabel("success rate (%)")
         inputs = ", ".join(entry["inputs"])
         ax.set_title(
-            f"{entry['task']} on {inputs}: thesis preset + each addition (orange), "
-            "default − each (blue)",
+            f"{entry['task']} on {inputs}: thesis + each (orange), default − each (blue)"
+            + (", default + option (green)" if any(r.get("options") for r in rows) else ""),
             fontsize=9,
         )
         # the legend 0.4 inch below the axes, under the x label, however tall the panel
