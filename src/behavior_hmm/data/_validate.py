@@ -47,9 +47,11 @@ VALUE_BOUNDS: Final[dict[str, tuple[float, float]]] = {
     name: spec.bounds for name, spec in CHANNELS.items() if spec.bounds is not None
 }
 
-#: Behavior names: a lowercase identifier such as ``turn`` or ``turn_approach``.
-BEHAVIOR_NAME_PATTERN: Final[str] = r"^[a-z][a-z0-9_-]{0,63}$"
-_NAME_RE = re.compile(r"[a-z][a-z0-9_-]{0,63}\Z")
+#: Behavior names: a lowercase identifier such as ``turn`` or ``turn_approach``; a row
+#: where two behaviors run at once (a parallel behavior, ``collect turn-approach-parallel``)
+#: names both, joined by ``+`` (``turn+approach``).
+BEHAVIOR_NAME_PATTERN: Final[str] = r"^[a-z][a-z0-9_-]{0,63}(\+[a-z][a-z0-9_-]{0,63})?$"
+_NAME_RE = re.compile(r"[a-z][a-z0-9_-]{0,63}(\+[a-z][a-z0-9_-]{0,63})?\Z")
 _CHANNEL_NAME_RE = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")
 
 _INT64_MAX = np.iinfo(np.int64).max
@@ -87,7 +89,7 @@ def check_behavior_name(name: object, *, file: str | None = None, field: str = "
     if not isinstance(name, str) or _NAME_RE.match(name) is None:
         raise DatasetError(
             f"invalid behavior name {name!r} (expected a lowercase identifier like 'turn', "
-            "matching ^[a-z][a-z0-9_-]*$)",
+            "or two joined by '+' like 'turn+approach')",
             file=file,
             field=field,
         )
@@ -726,11 +728,11 @@ def check_table(
                 i = int(np.argmax(names == name))
                 raise where.error(
                     f"invalid behavior name {name!r} (expected a lowercase identifier like "
-                    "'turn', matching ^[a-z][a-z0-9_-]*$)",
+                    "'turn', or two joined by '+' like 'turn+approach')",
                     i,
                     "behavior",
                 )
-            if known is not None and name not in known:
+            if known is not None and not (name in known or set(name.split("+")) <= known):
                 i = int(np.argmax(names == name))
                 listing = ", ".join(sorted(known)) or "none"
                 raise where.error(

@@ -98,6 +98,11 @@ class BehaviorSpec:
     components
         For a composite behavior, the behaviors it is composed of (tags of the
         ``behavior`` column).
+    parallel
+        The teacher runs a composite's turn and its drive at once where it can (thesis
+        §7.2): it turns from the start and drives from where the bearing is within
+        ``TeacherConfig.parallel_angle`` of ahead; rows where both run are tagged with both
+        components, joined by ``+`` (``turn+approach``).
     corrections
         Corrective demonstrations per start in its default training set (its
         ``train_starts``): runs in which the teacher corrects a disturbance of its heading
@@ -117,6 +122,7 @@ class BehaviorSpec:
     start_defaults: Mapping[str, float] = field(default_factory=lambda: {"angle": 0.0})
     replan: bool = False
     components: tuple[str, ...] = ()
+    parallel: bool = False
     corrections: int = 0
     description: str = ""
     env: str | None = None
@@ -136,6 +142,11 @@ class BehaviorSpec:
             float(value)
         if isinstance(self.corrections, bool) or not isinstance(self.corrections, int):
             raise ConfigError(f"behavior '{self.name}': corrections must be an integer")
+        if self.parallel and len(self.components) != 2:
+            raise ConfigError(
+                f"behavior '{self.name}': a parallel behavior has two components (a turn and "
+                "a drive)"
+            )
         if self.corrections < 0 or (self.corrections and self.components):
             raise ConfigError(
                 f"behavior '{self.name}': corrections must be >= 0, and 0 for a composite"
@@ -381,6 +392,16 @@ for _spec in (
         components=("turn", "approach", "grasp"),
         description="turn, approach and grasp the object from all around (gripper robot)",
         env=GRIPPER_ENV_ID,
+    ),
+    BehaviorSpec(
+        "turn-approach-parallel",
+        {"angle": 0.0, "distance": 0.0},
+        _turn_approach_phases,
+        _turn_approach_grid,
+        "turn_approach_test.csv",
+        components=("turn", "approach"),
+        parallel=True,
+        description="turn to face the object while driving to it (thesis 7.2: in parallel)",
     ),
 ):
     register_behavior(_spec)

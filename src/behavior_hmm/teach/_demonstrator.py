@@ -86,6 +86,10 @@ class TeacherConfig:
         closing fingers have settled when they stop moving (on the object or closed).
     stop_steps
         Zero-command rows appended at the end: every demonstration ends commanding a stop.
+    parallel_angle
+        A parallel behavior (``BehaviorSpec.parallel``: turn while driving) starts its drive
+        once the bearing is within this angle (deg) of ahead, while its turn goes on; the
+        drive's profile then runs at ``cos(bearing)`` times the clock's rate.
     max_extra_time
         Seconds allowed after a profile ends before the teacher reports a failure.
     """
@@ -103,6 +107,7 @@ class TeacherConfig:
     settle_arm: float = 1.0
     settle_fingers: float = 0.0005
     stop_steps: int = 4
+    parallel_angle: float = 80.0
     max_extra_time: float = 4.0
 
     def __post_init__(self) -> None:
@@ -113,6 +118,8 @@ class TeacherConfig:
             raise ConfigError("approach_target must lie inside the distance tolerance")
         if self.stop_steps < 0:
             raise ConfigError("stop_steps must be >= 0")
+        if not 0.0 < self.parallel_angle < 90.0:
+            raise ConfigError("parallel_angle must lie in (0, 90) deg: driving must close in")
 
     def scaled_to(self, spec: RobotSpec) -> TeacherConfig:
         """These settings with profile limits scaled to a robot's top speed and yaw rate.
@@ -270,6 +277,9 @@ class Teacher:
         step = 0
         done: list[Phase] = []
         pending = phases
+        if spec.parallel and len(phases) == 2:  # a turn and a drive, at once where they can
+            obs, true, step = self._run_parallel(phases[0], phases[1], obs, true, step, demo)
+            done, pending = phases, []
         while pending:
             phase = pending[0]
             obs, true, step = self._run_phase(phase, obs, true, step, demo)
@@ -340,6 +350,77 @@ class Teacher:
             step += 1
             k += 1
 
+    def _run_parallel(
+        self,
+        turn: Phase,
+        drive: Phase,
+        obs: np.ndarray,
+        true: np.ndarray,
+        step: int,
+        demo: Demonstration,
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Turn and drive at once: the turn's profile from the start, the drive's from the
+        cycle the bearing comes within ``parallel_angle`` of ahead (thesis §7.2: "while a
+        robot is turning to an object, it can also approach to object in parallel").
+
+        Each cycle the yaw comes from the turn while it runs (then the drive's heading
+        hold) and the forward speed from the drive while it runs; rows are tagged with
+        what runs: ``turn``, ``turn+approach`` (both) or ``approach``. Driving with the
+        object at bearing θ closes the distance at ``cos θ`` of the speed, so the drive's
+        profile runs on a clock that advances ``cos θ`` per second: the robot picks up
+        speed as it comes to face the object, and its distance follows the profile.
+        Driving off-axis moves the bearing too; the turn's feedback takes that up.
+        """
+        cfg = self.config
+        turn_profile = SCurve(wrap_deg(true[self._angle]), turn.target, cfg.turn_limits)
+        touch = drive.name == "approach" and drive.target == 0.0
+        target = cfg.approach_target if touch else drive.target
+        drive_profile: SCurve | None = None
+        drive_clock = 0.0  # the drive profile's own time (s), advancing cos(bearing) per s
+        limit = (
+            turn_profile.duration
+            + SCurve(true[self._dist], target, cfg.distance_limits).duration
+            + cfg.max_extra_time
+        )
+        turning, driving = True, True
+        k = 0
+        while True:
+            t = k * self._dt
+            bearing = wrap_deg(true[self._angle])
+            if drive_profile is None and abs(bearing) <= cfg.parallel_angle:
+                drive_profile = SCurve(true[self._dist], target, cfg.distance_limits)
+            if turning and t >= turn_profile.duration:
+                turning = not self._settled(turn, turn_profile.target, true)
+            if driving and drive_profile is not None and drive_clock >= drive_profile.duration:
+                driving = not self._settled(drive, drive_profile.target, true)
+            if not turning and not driving:
+                return obs, true, step
+            if t > limit:
+                raise SimulationError(
+                    f"teacher could not finish turning and driving at once within {limit:.1f} s "
+                    f"(angle {true[self._angle]:.2f} deg, distance {true[self._dist]:.4f} m)"
+                )
+            if turning:
+                yaw_deg = self._turn_yaw(turn_profile, t, true)
+            else:
+                yaw_deg = cfg.heading_gain * wrap_deg(true[self._angle])
+            forward = 0.0
+            moving = driving and drive_profile is not None
+            if moving:
+                assert drive_profile is not None
+                forward = self._drive_forward(drive_profile, drive_clock, true)
+                drive_clock += self._dt * max(0.0, math.cos(math.radians(bearing)))
+            command = self._rest.copy()
+            command[:2] = self._wheels(forward, yaw_deg)
+            demo.t.append(step * self._dt)
+            demo.sensors.append(obs)
+            demo.commands.append(tuple(command.tolist()))
+            tags = [p.label for p, on in ((turn, turning), (drive, moving)) if on]
+            demo.behavior.append("+".join(tags) or drive.label)
+            obs, true, _ = self.robot.step(command)
+            step += 1
+            k += 1
+
     def _run_gripper_phase(
         self, phase: Phase, obs: np.ndarray, true: np.ndarray, step: int, demo: Demonstration
     ) -> tuple[np.ndarray, np.ndarray, int]:
@@ -392,17 +473,29 @@ class Teacher:
     def _command(
         self, phase: Phase, profile: SCurve, t: float, true: np.ndarray
     ) -> tuple[float, float]:
-        cfg = self.config
-        position, velocity = profile.at(t)
         if phase.name == "turn":
-            # The bearing falls as the robot yaws counter-clockwise: d(angle)/dt = -yaw rate.
-            error = wrap_deg(true[self._angle] - position)
-            yaw_deg = -velocity + cfg.angle_gain * error
+            yaw_deg = self._turn_yaw(profile, t, true)
             forward = 0.0
         else:
-            # The distance falls as the robot drives forward: d(distance)/dt = -forward speed.
-            forward = -velocity + cfg.distance_gain * (true[self._dist] - position)
-            yaw_deg = cfg.heading_gain * wrap_deg(true[self._angle])
+            forward = self._drive_forward(profile, t, true)
+            yaw_deg = self.config.heading_gain * wrap_deg(true[self._angle])
+        return self._wheels(forward, yaw_deg)
+
+    def _turn_yaw(self, profile: SCurve, t: float, true: np.ndarray) -> float:
+        """Yaw rate (deg/s) tracking a turn's profile at ``t``."""
+        position, velocity = profile.at(t)
+        # The bearing falls as the robot yaws counter-clockwise: d(angle)/dt = -yaw rate.
+        error = wrap_deg(true[self._angle] - position)
+        return -velocity + self.config.angle_gain * error
+
+    def _drive_forward(self, profile: SCurve, t: float, true: np.ndarray) -> float:
+        """Forward speed (m/s) tracking an approach's or a retreat's profile at ``t``."""
+        position, velocity = profile.at(t)
+        # The distance falls as the robot drives forward: d(distance)/dt = -forward speed.
+        return -velocity + self.config.distance_gain * (true[self._dist] - position)
+
+    def _wheels(self, forward: float, yaw_deg: float) -> tuple[float, float]:
+        """Wheel speeds (rad/s, left and right) for a forward speed and a yaw rate."""
         yaw = math.radians(yaw_deg)
         right = forward * self._inv_r + yaw * self._half_track_over_r
         left = forward * self._inv_r - yaw * self._half_track_over_r
