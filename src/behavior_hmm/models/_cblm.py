@@ -128,6 +128,17 @@ class CBLM(LearnedBehavior):
         the end of an approach. Elsewhere the component whose goal states that input and
         whose effect brings it back runs first: approach again after the object is
         nudged away (thesis: False).
+    parallel
+        When the demonstrations run two components at once (rows tagged ``a+b``: a
+        parallel teacher, ``collect turn-approach-parallel``), run them at once where the
+        teacher did (thesis §7.2; thesis: False, one component at a time). The planned
+        component ``a`` runs as always; in an observation category where most of ``a``'s
+        rows ran ``b`` beside it (``parallel_``), ``b`` runs too, toward its goal, and the
+        command is ``a``'s along ``a``'s own command direction plus ``b``'s along ``b``'s
+        (``directions_``), ``b``'s weighted by the share of ``a``'s goal error closed since
+        ``b`` started (``b`` takes over as ``a``'s goal comes near); when the plan hands
+        over to ``b`` it goes on without a restart. Demonstrations without such rows
+        leave the model as sequential as the thesis's.
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -146,6 +157,13 @@ class CBLM(LearnedBehavior):
         (MuJoCo turn & approach: 23 cycles, 0.37 s).
     effects_ : ndarray of shape (n_components, n_inputs)
         Each component's mean per-step effect on each input in the demonstrations.
+    parallel_ : ndarray of int, shape (n_observations,)
+        The component run beside the planned one in each observation category (-1:
+        none): where the demonstrations' rows of a component ran another at once.
+    directions_ : ndarray of shape (n_components, n_commands)
+        Each component's command direction: the first principal direction of its
+        normalized commands in the demonstrations (turn: the wheels' difference,
+        approach: their sum).
     reach_ : ndarray of shape (n_components, n_inputs, 2)
         The smallest and largest value of each input (of its magnitude for an angle)
         where the demonstrations start each component (NaN: it never runs); ``None`` in
@@ -181,6 +199,7 @@ class CBLM(LearnedBehavior):
         handover_pause: bool = True,
         reach_check: bool = True,
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
+        parallel: bool = True,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -201,6 +220,7 @@ class CBLM(LearnedBehavior):
         self.handover_pause = handover_pause
         self.reach_check = reach_check
         self.progress_limit = progress_limit
+        self.parallel = parallel
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -215,6 +235,7 @@ class CBLM(LearnedBehavior):
             "forward_goals",
             "handover_pause",
             "reach_check",
+            "parallel",
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
@@ -251,8 +272,8 @@ class CBLM(LearnedBehavior):
     def _fit_rows(self, dataset: Dataset, inputs: tuple[str, ...], context: Any) -> tuple[Any, Any]:
         """Fit step 2: the nominal demonstrations, each row tagged with its component."""
         components, names = context
-        dataset, states = _nominal_tagged(dataset, names)
-        return dataset, (components, names, states)
+        dataset, states, partners = _nominal_tagged(dataset, names)
+        return dataset, (components, names, states, partners)
 
     def _fit_learn(
         self,
@@ -264,7 +285,7 @@ class CBLM(LearnedBehavior):
     ) -> None:
         """Fit step 4: observation categories, the counted A, B, C, π between components,
         and the commands (scales, largest step, the pause at a switch)."""
-        components, names, states = context
+        components, names, states, partners = context
         lengths = dataset.lengths
         overrides = {
             "rho": float(self.observation_vigilance),
@@ -313,6 +334,10 @@ class CBLM(LearnedBehavior):
             lengths,
             scales if len(set(units)) > 1 else self.command_scale_,
         )
+        self.parallel_ = _parallel_partners(obs.labels_, states, partners, obs.n_categories_)
+        self.directions_ = _command_directions(
+            dataset.commands, scales, self.rest_command, states, partners, len(components)
+        )
 
     def _fit_finish(
         self,
@@ -325,7 +350,7 @@ class CBLM(LearnedBehavior):
     ) -> None:
         """Fit step 6: the default goal, the step limit, and what each component does
         (``effects_``) and where it starts (``reach_``)."""
-        components, _, states = context
+        components, _, states, _ = context
         # the behavior's declared goal on the inputs; without one, the data contract's
         # angle and distance 0 among them
         declared = self._declared_goal(dataset, inputs)
@@ -477,7 +502,7 @@ class CBLM(LearnedBehavior):
         names = [*self.names_, name]
         components = [*self.components_, model]
         k = len(self.names_)
-        dataset, states = _nominal_tagged(dataset, names)
+        dataset, states, partners = _nominal_tagged(dataset, names)
         if not (states == k).any():
             raise ConfigError(f"the demonstrations never run the new component {name}")
         x = self.pipeline_.transform(dataset)
@@ -499,6 +524,9 @@ class CBLM(LearnedBehavior):
         raw = dataset.columns(inputs)
         wraps = [self.channel_spec(c).wraps for c in inputs]
         effect = _effects(states, raw, lengths, len(names), wraps)[k]
+        direction = _command_directions(
+            dataset.commands, self.command_scales_, self.rest_command, states, partners, k + 1
+        )[k]
         reach = _reach(states, raw, lengths, len(names), wraps)[k]
         commands = np.asarray(dataset.commands, dtype=np.float64)
         scale = max(self.command_scale_, float(np.max(np.abs(commands))))
@@ -534,6 +562,11 @@ class CBLM(LearnedBehavior):
         self.__dict__.pop("_latest_physical", None)  # cache of category_values
         self.hmm_ = hmm
         self.effects_ = np.vstack([self.effects_, effect[None, :]])
+        if getattr(self, "parallel_", None) is not None:  # the new categories: none beside
+            grown = np.full(obs.n_categories_, -1, dtype=np.int64)
+            grown[: self.parallel_.shape[0]] = self.parallel_
+            self.parallel_ = grown
+            self.directions_ = np.vstack([self.directions_, direction[None, :]])
         if self.reach_ is not None:
             self.reach_ = np.concatenate([self.reach_, reach[None]], axis=0)
         self.command_scale_ = scale
@@ -629,6 +662,10 @@ class CBLM(LearnedBehavior):
         arrays["obs.counts"] = self.observations_.counts_
         arrays["obs.dcm_scale"] = self.observations_.dcm_scale_
         arrays["effects"] = self.effects_
+        if getattr(self, "parallel_", None) is not None and (self.parallel_ >= 0).any():
+            # only a model that learned parallel runs stores them: the file as before
+            arrays["parallel"] = self.parallel_
+            arrays["directions"] = self.directions_
         if self.reach_ is not None:
             arrays["reach"] = self.reach_
         for i, component in enumerate(self.components_):
@@ -672,6 +709,7 @@ class CBLM(LearnedBehavior):
                 f"kinds must list 1 to {_modelfile.MAX_COMPONENTS} component kinds"
             )
         own = {"obs.prototypes", "obs.counts", "obs.dcm_scale", "effects", "reach"}
+        own |= {"parallel", "directions"}
         own |= {f"component.{i}" for i in range(len(kinds))}
         extra = sorted(k for k in arrays if k not in own and not k.startswith("hmm."))
         if extra:
@@ -735,12 +773,14 @@ class CBLM(LearnedBehavior):
         )
         model._restore_common(state, inputs)
         model._restore_commands(state)
+        model.parallel_, model.directions_ = _parallel_from(arrays, len(components), obs, model)
         model.updates_ = _check_component_updates(state.get("updates"), names)
         return model
 
 
-def _nominal_tagged(dataset: Dataset, names: list[str]) -> tuple[Dataset, np.ndarray]:
-    """The nominal demonstrations and the component index of each of their rows.
+def _nominal_tagged(dataset: Dataset, names: list[str]) -> tuple[Dataset, np.ndarray, np.ndarray]:
+    """The nominal demonstrations, the component index of each of their rows and the
+    component run beside it (-1: none; see :func:`_tag_states`).
 
     Corrective demonstrations (collect --corrections) teach generators to recover; a CBLM
     has none, and their disturbed runs would only distort its categories, its transitions
@@ -755,24 +795,90 @@ def _nominal_tagged(dataset: Dataset, names: list[str]) -> tuple[Dataset, np.nda
             "complex demonstrations need a 'behavior' column naming the active component",
             field="behavior",
         )
-    return dataset, _tag_states(dataset, tags, names)
+    return (dataset, *_tag_states(dataset, tags, names))
 
 
-def _tag_states(dataset: Dataset, tags: Any, names: Sequence[str]) -> np.ndarray:
-    """The component index of every row, from its ``behavior`` tag (DatasetError if none)."""
+def _tag_states(dataset: Dataset, tags: Any, names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """The component index of every row, from its ``behavior`` tag (DatasetError if none),
+    and of the component run beside it: a row tagged ``a+b`` (two at once) is ``a``'s,
+    with ``b`` beside it; -1 on other rows."""
     index = {name: i for i, name in enumerate(names)}
     states = np.empty(len(tags), dtype=np.int64)
+    partners = np.full(len(tags), -1, dtype=np.int64)
     for row, tag in enumerate(tags):
-        if tag not in index:
-            episode = int(np.searchsorted(dataset.offsets, row, side="right") - 1)
-            raise DatasetError(
-                f"behavior '{tag}' is not a component (components: {', '.join(names)})",
-                episode=int(dataset.episode_ids[episode]),
-                row=int(row - dataset.offsets[episode]),
-                field="behavior",
-            )
-        states[row] = index[tag]
-    return states
+        first, _, second = str(tag).partition("+")
+        for name in (first, second) if second else (first,):
+            if name not in index or name == second == first:
+                episode = int(np.searchsorted(dataset.offsets, row, side="right") - 1)
+                raise DatasetError(
+                    f"behavior '{tag}' is not a component or two at once (components: "
+                    f"{', '.join(names)})",
+                    episode=int(dataset.episode_ids[episode]),
+                    row=int(row - dataset.offsets[episode]),
+                    field="behavior",
+                )
+        states[row] = index[first]
+        if second:
+            partners[row] = index[second]
+    return states, partners
+
+
+def _parallel_partners(
+    labels: np.ndarray, states: np.ndarray, partners: np.ndarray, n_observations: int
+) -> np.ndarray:
+    """Per observation category, the component the demonstrations ran beside the planned
+    one there: the most frequent partner where over half the category's rows had one
+    (-1 elsewhere, and everywhere without parallel rows)."""
+    out = np.full(n_observations, -1, dtype=np.int64)
+    paired = partners >= 0
+    if not paired.any():
+        return out
+    totals = np.bincount(labels, minlength=n_observations)
+    for k in np.unique(labels[paired]).tolist():
+        mine = partners[(labels == k) & paired]
+        if 2 * mine.size > totals[k]:
+            out[k] = int(np.bincount(mine).argmax())
+    return out
+
+
+def _command_directions(
+    commands: np.ndarray,
+    scales: Any,
+    rest: np.ndarray,
+    states: np.ndarray,
+    partners: np.ndarray,
+    n_components: int,
+) -> np.ndarray:
+    """Each component's command direction: the first principal direction (unit vector)
+    of its commands away from rest, in units of each channel's scale, over the rows it
+    ran alone (zeros for a component that never did)."""
+    u = (np.asarray(commands, dtype=np.float64) - rest) / np.asarray(scales, dtype=np.float64)
+    out = np.zeros((n_components, u.shape[1]))
+    for k in range(n_components):
+        rows = u[(states == k) & (partners < 0)]
+        if rows.size and np.abs(rows).max() > 0:
+            direction = np.linalg.svd(rows, full_matrices=False)[2][0]
+            out[k] = direction if direction[np.argmax(np.abs(direction))] > 0 else -direction
+    return out
+
+
+def _parallel_from(
+    arrays: Mapping[str, np.ndarray], n_components: int, obs: Any, model: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """``parallel_`` and ``directions_`` from a model file (none stored: no parallel runs)."""
+    n_commands = len(model.command_channels)
+    if "parallel" not in arrays and "directions" not in arrays:
+        return np.full(obs.n_categories_, -1, dtype=np.int64), np.zeros((n_components, n_commands))
+    partners = _modelfile.check_array(arrays, "parallel", ndim=1, kind="iu")
+    if (
+        partners.shape != (obs.n_categories_,)
+        or not ((partners >= -1) & (partners < n_components)).all()
+    ):
+        raise ModelFileError("parallel must name a component (or -1) per observation category")
+    directions = _modelfile.check_array(arrays, "directions", ndim=2)
+    if directions.shape != (n_components, n_commands) or np.abs(directions).max() > 1 + 1e-9:
+        raise ModelFileError("directions must be unit vectors, one per component")
+    return partners.astype(np.int64), np.array(directions, dtype=np.float64)
 
 
 def _check_component_updates(value: Any, names: Sequence[str]) -> list[dict[str, Any]]:

@@ -464,6 +464,14 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._rates = self._rate * relative
         self._rest_command = model.rest_command
         self._limit_motion = False  # the components limit their own commands
+        #: the component run beside the planned one, per observation category (None: the
+        #: model runs one at a time); command directions and scales to fuse their commands
+        partners: NDArray[np.int64] | None = getattr(model, "parallel_", None)
+        self._partners = None
+        if bool(getattr(model, "parallel", False)) and partners is not None:
+            self._partners = partners if bool(np.any(partners >= 0)) else None
+        self._directions = getattr(model, "directions_", None)
+        self._scales = np.asarray(model.command_scales_, dtype=np.float64)
         self.reset()
 
     def reset(self) -> None:
@@ -483,6 +491,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._debounce.clear()
         self._settled = 0  # cycles spent settling (at most settle_cycles a run)
         self._pause_left = 0  # cycles of the handover pause still to rest
+        self._beside = -1  # the component running beside the active one (-1: none)
+        self._beside_from = 0.0  # the active one's goal error when it started
+        self._now: Mapping[str, float] = {}  # this cycle's filtered readings
         self._limit_reset()
 
     @property
@@ -553,6 +564,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             category = self._plannable(category)
             self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
+        self._now = values
         at_goal = within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
         if self._phase is Phase.PAUSED and not at_goal:
             return self._wait(category, novel)
@@ -786,8 +798,14 @@ class ComplexPolicy(GoalTracking, RateLimited):
         tolerance: float = 1.0,
     ) -> tuple[StepOutput, bool]:
         """:meth:`_start`, and whether the component could start (no UnreachableGoalError)."""
+        if comp == self._beside and comp != self._active:
+            # the plan hands over to the component already running beside: it goes on
+            self._child, self._active, self._beside = self._children[comp], comp, -1
+            self._phase = Phase.RUNNING
+            return self._run_child_checked(reading, category, novel, True)
         changed = comp != self._active or renew
         if changed:
+            self._beside = -1  # another component: whatever ran beside stops
             child = self._children[comp]
             child.renew(sub_goal, tolerance)  # as a new controller, without building one
             self._child = child
@@ -801,7 +819,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
     def _hand_back(self, at_rest: bool) -> None:
         """The running component reached its goal: PAUSED (it ended at rest) or CHOOSING."""
         self._finished[self._active] = dict(self._child.goal)
-        if at_rest:  # the teacher's pause at a switch
+        if at_rest and self._beside < 0:  # the teacher's pause at a switch
             self._pause_left = self._handover
         self._phase = Phase.PAUSED if self._pause_left > 0 else Phase.CHOOSING
         self._handed_back = True
@@ -845,10 +863,65 @@ class ComplexPolicy(GoalTracking, RateLimited):
             # the component cannot reach its intermediate goal from here: skip it
             rest = self._skip()
             return StepOutput(rest, category, novel, self._active, self.name, changed, False), False
+        if self._partners is not None and self._phase is Phase.RUNNING:
+            out = self._with_beside(out, reading, category)
         if out.done:
             self._hand_back(self._at_rest_command(out.command))
         label = out.component or self.model.names_[self._active]
         return StepOutput(out.command, category, novel, self._active, label, changed, False), True
+
+    def _with_beside(self, out: StepOutput, reading: Mapping[str, float], category: int) -> Any:
+        """``out`` of the active component fused with the one the demonstrations ran
+        beside it here (CBLM ``parallel``), started when the category first asks for it.
+
+        The fused command is the active component's along its own command direction plus
+        the other's along its own, the other's weighted by the share of the active
+        component's goal error closed since the other started (:meth:`_goal_error`).
+        """
+        assert self._partners is not None and self._directions is not None
+        active = self._active
+        if self._beside < 0:
+            partner = int(self._partners[category]) if 0 <= category < len(self._partners) else -1
+            if partner < 0 or partner == active or partner in self._finished:
+                return out
+            child = self._children[partner]
+            own = self.model.components_[partner].default_goal_
+            child.renew({c: self.goal.get(c, v) for c, v in own.items()}, 1.0)
+            child.reset()
+            child.carry(self._last)
+            self._beside, self._beside_from = partner, self._goal_error(active)
+        beside = self._beside
+        try:
+            other = self._children[beside].step(reading)
+        except UnreachableGoalError:
+            return out  # no plan for it from here this cycle: the active one runs alone
+        if other.done:  # its goal holds: it stops, and counts as finished
+            self._finished[beside] = dict(self._children[beside].goal)
+            self._beside = -1
+            return out
+        start = self._beside_from
+        weight = 1.0 if start <= 0.0 else min(1.0, max(0.0, 1.0 - self._goal_error(active) / start))
+        rest = self._rest_command
+        mine = self._directions[active]
+        theirs = self._directions[beside]
+        u = (out.command - rest) / self._scales
+        v = (other.command - rest) / self._scales
+        fused = mine * float(u @ mine) + weight * theirs * float(v @ theirs)
+        names = self.model.names_
+        label = f"{out.component or names[active]}+{other.component or names[beside]}"
+        return out._replace(command=rest + fused * self._scales, component=label)
+
+    def _goal_error(self, component: int) -> float:
+        """How far the filtered readings are from ``component``'s goal: the largest error
+        over its goal channels, in units of their tolerance."""
+        child = self._children[component]
+        errors = [
+            abs(self.channel_specs[c].error(self._now[c], g))
+            / (float(self.channel_specs[c].tolerance or 0.0) or 1.0)
+            for c, g in child.goal.items()
+            if c in self._now
+        ]
+        return max(errors, default=0.0)
 
     # -- helpers ---------------------------------------------------------------------------
 

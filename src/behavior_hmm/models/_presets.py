@@ -195,6 +195,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "a component starts only near where its demonstrations start it (grasp: object close)",
     ),
     Departure(
+        "parallel",
+        {"CBLM": {"parallel": False}},
+        "where the demonstrations ran two components at once, run them at once",
+    ),
+    Departure(
         "start_alternatives",
         {"CBLM": {"start_alternatives": 0}},
         "an unplannable start category tries up to 5 runner-up categories",
