@@ -14,6 +14,7 @@ Usage::
     behavior-hmm experiment incremental --sim kinematic   # thesis §7.1, issue 29
     behavior-hmm experiment grasp -o results/grasp        # thesis chapter 5, issue 28
     behavior-hmm experiment data-efficiency --sim kinematic  # learning curve over subsets
+    behavior-hmm experiment parallel --sim kinematic   # turn while approaching (thesis 7.2)
 """
 
 from __future__ import annotations
@@ -630,6 +631,59 @@ def experiment_grasp(
         table = write_grasp_report(results, out, videos=videos)
     typer.echo(table)
     log.info("results: %s/results.json, figures and table.md", out)
+
+
+@app.command("parallel")
+@user_errors
+def experiment_parallel(
+    out: OutFolder = Path("results/parallel"),
+    sim: SimOption = "mujoco",
+    seed: SeedOption = 0,
+    seeds: SeedsOption = 1,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+    workers: WorkersOption = None,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
+) -> None:
+    """Thesis 7.2: turn & approach one after the other against turning while approaching.
+
+    Trains turn and approach, a CBLM on the sequential teacher's demonstrations and one on
+    the parallel teacher's (collect turn-approach-parallel; CBLM parallel=True, and the
+    same model one component at a time), and scores each on turn & approach's 15 test
+    starts against its teacher: success beside the all-zero floor, goals, time to goal,
+    path length, and the time over the sequential run's. Writes results.json,
+    timings.json, table.md and parallel.png.
+
+    Example: behavior-hmm experiment parallel --sim kinematic --seeds 3 -o results/parallel
+    """
+    from behavior_hmm._atomic import all_or_none
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._parallel import run_parallel_experiment
+    from behavior_hmm.viz._parallel import FIGURE_NAME, write_parallel_report
+
+    check_sim(sim)
+    check_seed(seed)
+    check_seeds(seeds)
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
+    runner = make_run_executor(executor, workers, address)
+    results = with_progress(
+        f"experiment parallel ({sim}, {name} preset)",
+        run_parallel_experiment,
+        executor=runner,
+        sim=sim,
+        seed=seed,
+        seeds=seeds,
+        sblm_params=params["SBLM"],
+        cblm_params=params["CBLM"],
+    )
+    results["preset"] = name
+    with all_or_none():  # every file of the report, or none
+        table = write_parallel_report(results, out)
+    typer.echo(table)
+    log.info("results: %s/results.json, timings.json, table.md and %s", out, FIGURE_NAME)
 
 
 @app.command("data-efficiency")
