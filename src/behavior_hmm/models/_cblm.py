@@ -132,8 +132,8 @@ class CBLM(LearnedBehavior):
         When the demonstrations run two components at once (rows tagged ``a+b``: a
         parallel teacher, ``collect turn-approach-parallel``), run them at once where the
         teacher did (thesis §7.2; thesis: False, one component at a time). The planned
-        component ``a`` runs as always; in an observation category where most of ``a``'s
-        rows ran ``b`` beside it (``parallel_``), ``b`` runs too, toward its goal, and the
+        component ``a`` runs as always; in an observation category where most of the
+        demonstrations' rows ran ``b`` beside ``a`` (``parallel_``), ``b`` runs too, toward its goal, and the
         command is ``a``'s along ``a``'s own command direction plus ``b``'s along ``b``'s
         (``directions_``), ``b``'s weighted by the share of ``a``'s goal error closed since
         ``b`` started (``b`` takes over as ``a``'s goal comes near); when the plan hands
