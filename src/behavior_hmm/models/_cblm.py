@@ -133,12 +133,12 @@ class CBLM(LearnedBehavior):
         parallel teacher, ``collect turn-approach-parallel``), run them at once where the
         teacher did (thesis §7.2; thesis: False, one component at a time). The planned
         component ``a`` runs as always; in an observation category where most of the
-        demonstrations' rows ran ``b`` beside ``a`` (``parallel_``), ``b`` runs too, toward its goal, and the
-        command is ``a``'s along ``a``'s own command direction plus ``b``'s along ``b``'s
-        (``directions_``), ``b``'s weighted by the share of ``a``'s goal error closed since
-        ``b`` started (``b`` takes over as ``a``'s goal comes near); when the plan hands
-        over to ``b`` it goes on without a restart. Demonstrations without such rows
-        leave the model as sequential as the thesis's.
+        demonstrations' rows ran ``b`` beside ``a`` (``parallel_``), ``b`` runs too,
+        toward its goal, and the command is ``a``'s along ``a``'s own command direction
+        plus ``b``'s along ``b``'s (``directions_``), ``b``'s weighted by the share of
+        ``a``'s goal error closed since ``b`` started (``b`` takes over as ``a``'s goal
+        comes near); when the plan hands over to ``b`` it goes on without a restart.
+        Demonstrations without such rows leave the model as sequential as the thesis's.
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
