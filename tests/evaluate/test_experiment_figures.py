@@ -71,3 +71,25 @@ def test_simple_experiment_draws_every_test_start_and_the_thesis_starts(tmp_path
     for name in ("turn_test_starts.png", "turn_generated_vs_demonstrated.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "figure_starts" in (tmp_path / "results.json").read_text()
+
+
+@pytest.mark.slow
+def test_an_auto_inputs_row_scores_the_channels_the_demonstrations_choose() -> None:
+    from behavior_hmm.evaluate._experiments import AUTO_CONFIGS, run_simple_experiment
+    from behavior_hmm.viz._reports import simple_table
+
+    configs = (("turn", ("angle", "angular_velocity"), 84.2), AUTO_CONFIGS[0])
+    results = run_simple_experiment(sim="kinematic", configs=configs, sblm_params={"epochs": 40})
+    hand, auto = results["rows"]
+    assert "chosen" not in hand
+    assert auto["chosen"] and auto["inputs"] == ["angle"]  # the wheels' echo is left out
+    assert "angular_velocity" in auto["reason"]
+    assert auto["thesis"] != auto["thesis"]  # NaN: the thesis picked its inputs by hand
+    assert auto["zero_floor"] < auto["sblm"] and auto["n"] == 15
+    table = simple_table(results)
+    assert (
+        "| turn | auto → angle | — |" in table
+        and "| turn | angle, angular_velocity | 84.2 |" in table
+    )
+    # the figures draw each input set once: the auto row repeats a hand-picked one
+    assert len(results["figures"]["test_starts"]) == 1

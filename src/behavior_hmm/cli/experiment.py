@@ -78,6 +78,14 @@ def experiment_simple(
     executor: ExecutorOption = "local",
     address: AddressOption = None,
     seeds: SeedsOption = 1,
+    auto_inputs: Annotated[
+        bool,
+        typer.Option(
+            "--auto-inputs/--no-auto-inputs",
+            help="Also score one row per behavior whose inputs the demonstrations choose "
+            "(as train simple --inputs auto), beside the hand-picked rows",
+        ),
+    ] = False,
 ) -> None:
     """Thesis tables 6.3 and 6.4: SBLM vs the thesis and behavior cloning.
 
@@ -85,7 +93,11 @@ def experiment_simple(
     """
     from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
-    from behavior_hmm.evaluate._experiments import run_simple_experiment
+    from behavior_hmm.evaluate._experiments import (
+        AUTO_CONFIGS,
+        SIMPLE_CONFIGS,
+        run_simple_experiment,
+    )
     from behavior_hmm.viz import write_simple_report
 
     check_sim(sim)
@@ -104,6 +116,7 @@ def experiment_simple(
         seed=seed,
         noise=noise,
         sblm_params=params["SBLM"],
+        configs=SIMPLE_CONFIGS + (AUTO_CONFIGS if auto_inputs else ()),
     )
     results["preset"] = name
     with all_or_none():  # every file of the report, or none

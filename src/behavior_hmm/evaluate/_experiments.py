@@ -24,6 +24,17 @@ SIMPLE_CONFIGS: Final[tuple[tuple[str, tuple[str, ...], float], ...]] = (
     ("approach", ("distance", "angle", "linear_velocity"), 73.7),
 )
 
+#: The inputs of a config whose input channels are chosen from its demonstrations
+#: (:func:`~behavior_hmm.models.select_inputs`, ``train simple --inputs auto``).
+AUTO_INPUTS: Final[tuple[str, ...]] = ("auto",)
+
+#: The rows ``experiment simple --auto-inputs`` adds: each behavior's inputs chosen from
+#: its demonstrations alone (no thesis figure: the thesis picked them by hand).
+AUTO_CONFIGS: Final[tuple[tuple[str, tuple[str, ...], float], ...]] = (
+    ("turn", AUTO_INPUTS, float("nan")),
+    ("approach", AUTO_INPUTS, float("nan")),
+)
+
 #: Starts of thesis figures 6.8 (turn from +100 and -100 deg) and 6.9 (approach from 0.7
 #: and 0.35 m). They lie on the training grids, not among the test starts; every input
 #: set is run from them, beside the teacher's demonstration from the same start.
@@ -98,7 +109,8 @@ def run_simple_experiment(
         mine = outcomes[k * len(configs) : (k + 1) * len(configs)]
         figures: dict[str, list[dict[str, Any]]] = {"test_starts": [], "thesis_starts": []}
         for outcome in mine:
-            figures["test_starts"].append(outcome["test_series"])
+            if outcome["test_series"] is not None:
+                figures["test_starts"].append(outcome["test_series"])
             if outcome["thesis_series"] is not None:
                 figures["thesis_starts"].append(outcome["thesis_series"])
         per_seed.append(
@@ -142,6 +154,12 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
     from behavior_hmm.teach import test_starts
 
     behavior, inputs, thesis, dataset, sim, seed, noise, sblm_params = task
+    choice = None
+    if tuple(inputs) == AUTO_INPUTS:  # chosen from the demonstrations alone, as --inputs auto
+        from behavior_hmm.models import select_inputs
+
+        choice = select_inputs(dataset, random_state=seed)
+        inputs = choice.inputs
     t0 = time.perf_counter()
     model = SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed})
     model.fit(dataset)
@@ -157,10 +175,11 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
         keep_traces=True,
     )
     traces = result.pop("_traces")
-    test_series = _figure_series(traces, behavior, inputs, result["cases"])
+    # an auto row's runs repeat a hand-picked row's inputs: the figures draw those once
+    test_series = None if choice else _figure_series(traces, behavior, inputs, result["cases"])
     thesis_series = None
     figure_starts: list[dict[str, Any]] = []
-    if FIGURE_STARTS.get(behavior):
+    if FIGURE_STARTS.get(behavior) and choice is None:
         extra = evaluate_model(
             model, FIGURE_STARTS[behavior], sim=sim, seed=seed, noise=noise, keep_traces=True
         )
@@ -189,6 +208,9 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
         "primitives": int(model.primitives_.n_categories_),
         "observations": int(model.observations_.n_categories_),
     }
+    if choice is not None:
+        row["chosen"] = True
+        row["reason"] = choice.reason
     return {
         "row": row,
         "evaluation": result,

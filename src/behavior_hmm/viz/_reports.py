@@ -137,15 +137,22 @@ def simple_table(results: dict[str, Any]) -> str:
     ]
     evaluations = results.get("evaluations") or [{}] * len(results["rows"])
     for r, ev in zip(results["rows"], evaluations, strict=True):
+        inputs = ", ".join(r["inputs"])
+        thesis = "—" if r["thesis"] != r["thesis"] else f"{r['thesis']:.1f}"  # NaN: none
+        if r.get("chosen"):  # picked from the demonstrations (--inputs auto)
+            inputs = f"auto → {inputs}"
         lines.append(
-            f"| {r['behavior']} | {', '.join(r['inputs'])} | {r['thesis']:.1f} "
+            f"| {r['behavior']} | {inputs} | {thesis} "
             f"| **{r['sblm']:.1f}** | {r['sblm_goal_reached']}/{r['n']} | {r['bc']:.1f} "
             f"| {r['bc_goal_reached']}/{r['n']} | {_get(r, 'bc_strong')} "
             f"| {_get(r, 'bc_strong_goal_reached', r['n'])} | {r['zero_floor']:.1f} "
             f"| {r['sblm_motor_max']:.1f} ({r['zero_floor_motor_max']:.1f}) "
             f"| {r['primitives']} / {r['observations']} | {_smoothness(ev)} |"
         )
-    labels = [f"{r['behavior']} ({', '.join(r['inputs'])})" for r in results["rows"]]
+    labels = [
+        f"{r['behavior']} ({'auto → ' if r.get('chosen') else ''}{', '.join(r['inputs'])})"
+        for r in results["rows"]
+    ]
     spread = seeds_table(results, labels, "SBLM")
     head = f"Seed {results.get('seed', 0)}:\n\n" if spread else ""
     return head + "\n".join(lines) + "\n" + ("\n" + spread if spread else "")
