@@ -91,6 +91,12 @@ def _row(result: Mapping[str, Any], period: float) -> dict[str, Any]:
     }
 
 
+def _without_paths(row: Mapping[str, Any]) -> dict[str, Any]:
+    """``row`` with its cases' drawn paths (``xy``) left out."""
+    cases = [{k: v for k, v in case.items() if k != "xy"} for case in row["cases"]]
+    return {**row, "cases": cases}
+
+
 def _seed_task(task: tuple[Any, ...]) -> dict[str, Any]:
     """Fit one seed's components and CBLMs and score every row (an executor task)."""
     from behavior_hmm.models import CBLM, SBLM
@@ -189,6 +195,7 @@ def run_parallel_experiment(
         "parallel_categories": first["parallel_categories"],
         "observation_categories": first["observation_categories"],
         "directions": first["directions"],
-        "per_seed": [{k: s[k] for k in keys} for s in per_seed],
+        # the paths are drawn from the first seed only: the other seeds' cases without them
+        "per_seed": [{k: _without_paths(s[k]) for k in keys} for s in per_seed],
         "timings": {"train_s": [s["train_s"] for s in per_seed]},
     }
