@@ -111,3 +111,25 @@ def test_a_pair_tag_must_name_two_components(
             CBLM(components, inputs=("distance", "angle")).fit(
                 Dataset(columns, parallel_data.metadata)
             )
+
+
+def test_the_plans_component_runs_beside_the_one_that_pre_empts_it(model: CBLM) -> None:
+    from behavior_hmm.models._policy import make_policy
+
+    policy = make_policy(model, None)
+    assert policy._pairs == {(0, 1)}  # approach ran beside turn; never the other way round
+    # a category that asks for no partner (an aligned approach's start, where the plan says
+    # approach and the bearing gap makes turn pre-empt it): approach runs beside turn only
+    # when pre-emption asked for it (``_wanted``)
+    policy._partners = np.full_like(policy._partners, -1)
+    reading = {"angle": 9.0, "distance": 0.15, "linear_velocity": 0.0, "angular_velocity": 0.0}
+    policy._now = {"angle": 9.0, "distance": 0.15}
+    turn = policy._children[0]
+    turn.renew({"angle": 0.0}, 1.0)
+    turn.reset()
+    policy._active, policy._child = 0, turn
+    out = turn.step(reading)
+    assert policy._with_beside(out, reading, 0) is out and policy._beside == -1
+    policy._wanted = 1
+    fused = policy._with_beside(out, reading, 0)
+    assert policy._beside == 1 and fused.component == "turn+approach"

@@ -472,6 +472,15 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self._partners = partners if bool(np.any(partners >= 0)) else None
         self._directions = getattr(model, "directions_", None)
         self._scales = np.asarray(model.command_scales_, dtype=np.float64)
+        #: the (component, partner) pairs the demonstrations ran at once: a partner's
+        #: categories, and the component whose rows they are (emission counts)
+        self._pairs: set[tuple[int, int]] = set()
+        if self._partners is not None:
+            counts = model.hmm_.B_counts_.tocsc()
+            for k in np.flatnonzero(self._partners >= 0).tolist():
+                emitting = counts.indices[counts.indptr[k] : counts.indptr[k + 1]]
+                partner = int(self._partners[k])
+                self._pairs.update((int(a), partner) for a in emitting if a != partner)
         self.reset()
 
     def reset(self) -> None:
@@ -493,6 +502,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._pause_left = 0  # cycles of the handover pause still to rest
         self._beside = -1  # the component running beside the active one (-1: none)
         self._beside_from = 0.0  # the active one's goal error when it started
+        self._wanted = -1  # the plan's component, to run beside the one pre-empting it
         self._now: Mapping[str, float] = {}  # this cycle's filtered readings
         self._limit_reset()
 
@@ -672,6 +682,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
         out, started = self._start_checked(fix, sub_goal, reading, category, novel, renew=True)
         if started:
             self._committed = True
+            # the plan asked for another component; where the demonstrations ran the two
+            # at once (parallel), it runs beside the one closing the gap
+            self._wanted = planned[0] if (fix, planned[0]) in self._pairs else -1
             return out
         # it cannot start from here (e.g. a nested turn & approach asked to back away):
         # the plan goes on as if it had not been tried, or the robot would try it again
@@ -805,7 +818,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             return self._run_child_checked(reading, category, novel, True)
         changed = comp != self._active or renew
         if changed:
-            self._beside = -1  # another component: whatever ran beside stops
+            self._beside = self._wanted = -1  # another component: whatever ran beside stops
             child = self._children[comp]
             child.renew(sub_goal, tolerance)  # as a new controller, without building one
             self._child = child
@@ -882,6 +895,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         active = self._active
         if self._beside < 0:
             partner = int(self._partners[category]) if 0 <= category < len(self._partners) else -1
+            if partner < 0:
+                partner = self._wanted
             if partner < 0 or partner == active or partner in self._finished:
                 return out
             child = self._children[partner]
