@@ -19,6 +19,7 @@ Usage::
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -58,6 +59,18 @@ app = typer.Typer(
     "Example: behavior-hmm experiment simple --sim kinematic -o results/simple",
 )
 
+
+def _write_report(write: Callable[[], str], out: Path, files: str) -> None:
+    """Write a report's files with ``write`` (every one, or none), print the table it
+    returns, and log which ``files`` went into ``out``."""
+    from behavior_hmm._atomic import all_or_none
+
+    with all_or_none():  # every file of the report, or none
+        table = write()
+    typer.echo(table)
+    log.info("results: %s/%s", out, files)
+
+
 TaskOption = Annotated[
     list[str] | None,
     typer.Option(help="Only this task (repeatable): turn, approach, turn-approach"),
@@ -91,7 +104,6 @@ def experiment_simple(
 
     Example: behavior-hmm experiment simple --sim kinematic --preset thesis -o results/simple
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._experiments import (
         AUTO_CONFIGS,
@@ -119,10 +131,9 @@ def experiment_simple(
         configs=SIMPLE_CONFIGS + (AUTO_CONFIGS if auto_inputs else ()),
     )
     results["preset"] = name
-    with all_or_none():  # every file of the report, or none
-        table = write_simple_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, figures and table.md", out)
+    _write_report(
+        lambda: write_simple_report(results, out), out, "results.json, figures and table.md"
+    )
 
 
 @app.command("robot")
@@ -151,7 +162,6 @@ def experiment_robot(
 
     Example: behavior-hmm experiment robot --env behavior_hmm/Husky-v0 -o results/husky
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._robot_experiment import run_robot_experiment
     from behavior_hmm.viz import write_robot_report
@@ -174,10 +184,11 @@ def experiment_robot(
         "object_radius": getattr(robot.unwrapped, "object_radius", None),
         "body_radius": getattr(robot.unwrapped, "body_radius", None),
     }
-    with all_or_none():  # every file of the report, or none
-        table = write_robot_report(results, out, **sizes)
-    typer.echo(table)
-    log.info("results: %s/results.json, trajectories.png and table.md", out)
+    _write_report(
+        lambda: write_robot_report(results, out, **sizes),
+        out,
+        "results.json, trajectories.png and table.md",
+    )
 
 
 @app.command("complex")
@@ -199,7 +210,6 @@ def experiment_complex(
 
     Example: behavior-hmm experiment complex --sim kinematic -o results/complex
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._experiments import run_complex_experiment
     from behavior_hmm.viz import write_complex_report
@@ -223,10 +233,9 @@ def experiment_complex(
         cblm_params=params["CBLM"],
     )
     results["preset"] = name
-    with all_or_none():  # every file of the report, or none
-        table = write_complex_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, figures and table.md", out)
+    _write_report(
+        lambda: write_complex_report(results, out), out, "results.json, figures and table.md"
+    )
 
 
 @app.command("ablation")
@@ -259,7 +268,6 @@ def experiment_ablation(
 
     Example: behavior-hmm experiment ablation --sim kinematic --task turn --seeds 3 -o results/abl
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._ablation import run_ablation
     from behavior_hmm.evaluate._ablation import task as ablation_task
@@ -287,10 +295,9 @@ def experiment_ablation(
         tasks=task or None,
         departures=departure or None,
     )
-    with all_or_none():  # every file of the report, or none
-        table = write_ablation_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, table.md and ablation.png", out)
+    _write_report(
+        lambda: write_ablation_report(results, out), out, "results.json, table.md and ablation.png"
+    )
 
 
 @app.command("faults")
@@ -321,7 +328,6 @@ def experiment_faults(
 
     Example: behavior-hmm experiment faults --sim kinematic --task turn --fault noise
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._ablation import task as ablation_task
     from behavior_hmm.evaluate._faults import fault_kind, run_faults
@@ -344,10 +350,11 @@ def experiment_faults(
         tasks=task or None,
         faults=fault or None,
     )
-    with all_or_none():  # every file of the report, or none
-        table = write_faults_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, table.md, faults_goal.png, faults_success.png", out)
+    _write_report(
+        lambda: write_faults_report(results, out),
+        out,
+        "results.json, table.md, faults_goal.png, faults_success.png",
+    )
 
 
 @app.command("categorization")
@@ -490,7 +497,6 @@ def experiment_lasa(
 
     Example: behavior-hmm experiment lasa --shape Angle --shape Sshape --grid 8 -o results/lasa
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._lasa import (
         check_grid,
@@ -514,10 +520,9 @@ def experiment_lasa(
         grid=grid,
         executor=runner,
     )
-    with all_or_none():  # every file of the report, or none
-        table = write_lasa_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, figures and table.md", out)
+    _write_report(
+        lambda: write_lasa_report(results, out), out, "results.json, figures and table.md"
+    )
 
 
 @app.command("incremental")
@@ -550,7 +555,6 @@ def experiment_incremental(
 
     Example: behavior-hmm experiment incremental --sim kinematic -o results/incremental
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._incremental import (
         DEFAULT_SEQUENCE,
@@ -575,10 +579,11 @@ def experiment_incremental(
         bc=bc,
     )
     results["preset"] = name
-    with all_or_none():  # every file of the report, or none
-        table = write_incremental_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, timings.json, table.md and incremental_R.png", out)
+    _write_report(
+        lambda: write_incremental_report(results, out),
+        out,
+        "results.json, timings.json, table.md and incremental_R.png",
+    )
 
 
 @app.command("grasp")
@@ -617,7 +622,6 @@ def experiment_grasp(
 
     Example: behavior-hmm experiment grasp --seeds 5 -o results/grasp
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._grasp import run_grasp_experiment
     from behavior_hmm.viz._grasp import write_grasp_report
@@ -640,10 +644,11 @@ def experiment_grasp(
         limit=limit,
     )
     results["preset"] = name
-    with all_or_none():  # every file of the report, or none
-        table = write_grasp_report(results, out, videos=videos)
-    typer.echo(table)
-    log.info("results: %s/results.json, figures and table.md", out)
+    _write_report(
+        lambda: write_grasp_report(results, out, videos=videos),
+        out,
+        "results.json, figures and table.md",
+    )
 
 
 @app.command("parallel")
@@ -671,7 +676,6 @@ def experiment_parallel(
 
     Example: behavior-hmm experiment parallel --sim kinematic --seeds 3 -o results/parallel
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._parallel import run_parallel_experiment
     from behavior_hmm.viz._parallel import FIGURE_NAME, write_parallel_report
@@ -693,10 +697,11 @@ def experiment_parallel(
         cblm_params=params["CBLM"],
     )
     results["preset"] = name
-    with all_or_none():  # every file of the report, or none
-        table = write_parallel_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, timings.json, table.md and %s", out, FIGURE_NAME)
+    _write_report(
+        lambda: write_parallel_report(results, out),
+        out,
+        f"results.json, timings.json, table.md and {FIGURE_NAME}",
+    )
 
 
 @app.command("data-efficiency")
@@ -734,7 +739,6 @@ def experiment_data_efficiency(
 
     Example: behavior-hmm experiment data-efficiency --sim kinematic --seeds 2 -o results/de
     """
-    from behavior_hmm._atomic import all_or_none
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._data_efficiency import (
         parse_fractions,
@@ -762,7 +766,8 @@ def experiment_data_efficiency(
         bc=bc,
     )
     results["preset"] = name
-    with all_or_none():  # every file of the report, or none
-        table = write_data_efficiency_report(results, out)
-    typer.echo(table)
-    log.info("results: %s/results.json, timings.json, table.md and %s", out, FIGURE_NAME)
+    _write_report(
+        lambda: write_data_efficiency_report(results, out),
+        out,
+        f"results.json, timings.json, table.md and {FIGURE_NAME}",
+    )
