@@ -53,14 +53,15 @@ def test_rows_of_a_simple_task_leave_out_cblm_departures() -> None:
         + [f"thesis + {n}" for n in sblm]
         + ["default"]
         + [f"default − {n}" for n in sblm]
-        + ["default + elman", "default − onset_clock + elman"]
+        + ["default + elman", "default − onset_clock + elman", "default + auto_inputs"]
     )
     assert "repair" not in {n for r in rows for n in r.switched}
 
 
 def test_rows_of_the_complex_task_cover_every_departure() -> None:
     rows = ablation_rows(task("turn-approach"))
-    assert len(rows) == 2 + 2 * len(DEPARTURES) + 2  # + elman, − onset_clock + elman
+    # + elman, − onset_clock + elman, + auto_inputs
+    assert len(rows) == 2 + 2 * len(DEPARTURES) + 3
     assert {n for r in rows for n in r.switched} == {d.name for d in DEPARTURES}
     assert [t.name for t in ABLATION_TASKS] == ["turn", "approach", "turn-approach"]
 
@@ -92,6 +93,23 @@ def test_option_rows_set_the_option_over_the_default() -> None:
     )
     with pytest.raises(ConfigError, match=r"unknown departure or option .elmann.*elman"):
         ablation_rows(task("turn"), ["elmann"])
+
+
+def test_an_auto_inputs_row_fits_on_the_channels_its_demonstrations_choose() -> None:
+    """The approach's hand-picked inputs are {distance, angle}; ``default + auto_inputs``
+    fits an SBLM that chooses its own (``select_inputs``), says which in its row and in
+    the table, and leaves the default row's model on the task's inputs."""
+    result = run_ablation(**{**QUICK, "tasks": ["approach"], "departures": ["auto_inputs"]})
+    (entry,) = result["tasks"]
+    rows = {r["label"]: r for r in entry["rows"]}
+    assert list(rows) == ["thesis", "default", "default + auto_inputs"]
+    assert "chosen_inputs" not in rows["default"]
+    chosen = rows["default + auto_inputs"]["chosen_inputs"]
+    assert chosen and chosen != "distance, angle"
+    assert set(chosen.split(", ")) <= set(
+        teach.collect("approach", sim="kinematic").sensor_channels
+    )
+    assert f"default + auto_inputs (chose {chosen})" in ablation_markdown(result)
 
 
 @pytest.mark.slow

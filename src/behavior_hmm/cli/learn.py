@@ -119,7 +119,7 @@ def train_simple(
     """
     from behavior_hmm import data as bdata
     from behavior_hmm._paths import check_outputs
-    from behavior_hmm.models import SBLM, describe_params
+    from behavior_hmm.models import AUTO_INPUTS, SBLM, describe_params
 
     if seed is not None:
         check_seed(seed)
@@ -130,26 +130,18 @@ def train_simple(
         raise ConfigError("--inputs is required, e.g. --inputs angle (or --update MODEL)")
     check_outputs({"DATA": data, "--config": config}, {"-o": out})
     _, params = model_params(("SBLM",), preset, config, set_)
-    auto = inputs.strip().lower() == "auto"
-    names = ["angle"] if auto else _inputs(inputs)  # auto: checked again once chosen
+    auto = inputs.strip().lower() == AUTO_INPUTS  # chosen by the fit from the data
+    names = AUTO_INPUTS if auto else _inputs(inputs)
     model = SBLM(**params["SBLM"], inputs=names, random_state=seed or 0)
     model.check_params()  # before any data is read
     dataset = bdata.read(data)
     log.debug("read %s: %d episodes, %d rows", data, len(dataset), dataset.n_samples)
-    choice = None
-    if auto:
-        from behavior_hmm.models import select_inputs
-
-        sblm_params = {k: v for k, v in params["SBLM"].items() if k != "inputs"}
-        choice = select_inputs(dataset, random_state=seed or 0, **sblm_params)
-        typer.echo(choice.summary() + f": {choice.reason}")
-        model.set_params(inputs=list(choice.inputs))
     t0 = time.perf_counter()
     with spinner(f"train simple on {data.name}"):
         model.fit(dataset)
+    if auto:
+        typer.echo(model.provenance_["inputs_selection"])
     model.set_training_data(data)
-    if choice is not None:
-        model.provenance_ = {**model.provenance_, "inputs_selection": choice.reason}
     model.save(out)
     typer.echo(
         f"wrote {out}: {model.behavior_} on {','.join(model.inputs_)}, "

@@ -146,7 +146,8 @@ def _fit_sblm(
     from behavior_hmm.models import SBLM
 
     t0 = time.perf_counter()
-    model = SBLM(**params, inputs=inputs, random_state=seed).fit(dataset)
+    # the task's inputs, unless the row's parameters choose them (inputs="auto")
+    model = SBLM(**{"inputs": inputs, **params}, random_state=seed).fit(dataset)
     return model, time.perf_counter() - t0
 
 
@@ -375,4 +376,10 @@ def _row_task(task: tuple[Any, ...]) -> dict[str, Any]:
     }
     if not item.components:
         summary["primitives"] = int(model.primitives_.n_categories_)
+    auto = [m for m in models if m.auto_inputs]
+    if auto:  # the inputs each simple behavior's fit chose (inputs="auto")
+        summary["chosen_inputs"] = "; ".join(
+            f"{m.behavior_}: {', '.join(m.inputs_)}" if item.components else ", ".join(m.inputs_)
+            for m in auto
+        )
     return {"summary": summary, "train_s": train_s}

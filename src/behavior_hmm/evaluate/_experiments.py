@@ -12,6 +12,7 @@ from behavior_hmm.errors import ConfigError
 from behavior_hmm.evaluate._baselines import BASELINES, baseline_columns, fit_baselines
 from behavior_hmm.evaluate._executor import Executor, SerialExecutor, map_largest_first
 from behavior_hmm.evaluate._protocol import evaluate_model
+from behavior_hmm.models import AUTO_INPUTS
 
 Progress = Callable[[int, int], None]
 
@@ -24,15 +25,12 @@ SIMPLE_CONFIGS: Final[tuple[tuple[str, tuple[str, ...], float], ...]] = (
     ("approach", ("distance", "angle", "linear_velocity"), 73.7),
 )
 
-#: The inputs of a config whose input channels are chosen from its demonstrations
-#: (:func:`~behavior_hmm.models.select_inputs`, ``train simple --inputs auto``).
-AUTO_INPUTS: Final[tuple[str, ...]] = ("auto",)
-
 #: The rows ``experiment simple --auto-inputs`` adds: each behavior's inputs chosen from
-#: its demonstrations alone (no thesis figure: the thesis picked them by hand).
+#: its demonstrations alone (``SBLM(inputs="auto")``, as ``train simple --inputs auto``;
+#: no thesis figure: the thesis picked them by hand).
 AUTO_CONFIGS: Final[tuple[tuple[str, tuple[str, ...], float], ...]] = (
-    ("turn", AUTO_INPUTS, float("nan")),
-    ("approach", AUTO_INPUTS, float("nan")),
+    ("turn", (AUTO_INPUTS,), float("nan")),
+    ("approach", (AUTO_INPUTS,), float("nan")),
 )
 
 #: Starts of thesis figures 6.8 (turn from +100 and -100 deg) and 6.9 (approach from 0.7
@@ -154,16 +152,14 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
     from behavior_hmm.teach import test_starts
 
     behavior, inputs, thesis, dataset, sim, seed, noise, sblm_params = task
-    choice = None
-    if tuple(inputs) == AUTO_INPUTS:  # chosen from the demonstrations alone, as --inputs auto
-        from behavior_hmm.models import select_inputs
-
-        choice = select_inputs(dataset, random_state=seed)
-        inputs = choice.inputs
+    auto = tuple(inputs) == (AUTO_INPUTS,)  # chosen by the fit from the demonstrations
     t0 = time.perf_counter()
-    model = SBLM(**{**dict(sblm_params or {}), "inputs": inputs, "random_state": seed})
+    names = AUTO_INPUTS if auto else inputs
+    model = SBLM(**{**dict(sblm_params or {}), "inputs": names, "random_state": seed})
     model.fit(dataset)
     train_s = time.perf_counter() - t0
+    inputs = model.inputs_
+    choice = model.provenance_["inputs_selection"] if auto else None
     baselines = fit_baselines(inputs, dataset, seed)
     result = evaluate_model(
         model,
@@ -210,7 +206,7 @@ def _simple_config_task(task: tuple[Any, ...]) -> dict[str, Any]:
     }
     if choice is not None:
         row["chosen"] = True
-        row["reason"] = choice.reason
+        row["reason"] = choice
     return {
         "row": row,
         "evaluation": result,

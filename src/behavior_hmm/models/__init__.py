@@ -3,11 +3,12 @@
 Both are selectable in two presets (DESIGN §10): ``SBLM.from_preset("thesis", ...)`` is the
 method as published; the constructor defaults are the ``default`` preset. Every departure
 is listed in :data:`DEPARTURES`; the measured options the default leaves off (recurrent
-generators) in :data:`OPTIONS`.
+generators, inputs chosen from the data) in :data:`OPTIONS`.
 """
 
 from behavior_hmm.models._cblm import CBLM
 from behavior_hmm.models._config import read_config, resolve_params
+from behavior_hmm.models._goals import AUTO_INPUTS
 from behavior_hmm.models._inputs import InputChoice, select_inputs
 from behavior_hmm.models._load import MODEL_KINDS, load
 from behavior_hmm.models._policy import perform
@@ -23,6 +24,7 @@ from behavior_hmm.models._presets import (
 from behavior_hmm.models._sblm import SBLM
 
 __all__ = [
+    "AUTO_INPUTS",
     "CBLM",
     "DEPARTURES",
     "MODEL_KINDS",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Final
 
 import numpy as np
 from scipy.sparse import csr_array
@@ -19,6 +20,10 @@ from behavior_hmm.data._validate import suggest
 from behavior_hmm.errors import ConfigError
 
 __all__ = ["TOLERANCES", "check_goal", "goal_candidates", "within_tolerance"]
+
+
+#: ``inputs`` value that lets an SBLM's ``fit`` choose the channels (``select_inputs``).
+AUTO_INPUTS: Final = "auto"
 
 
 def check_input_names(inputs: Sequence[str], available: Sequence[str] | None = None) -> None:

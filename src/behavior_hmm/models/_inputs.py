@@ -10,7 +10,7 @@ matter).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,6 +35,13 @@ ECHO_R2 = 0.9
 ECHO_MOVED = 0.5
 #: Lags (control cycles) of the recent commands that the echo test reads.
 ECHO_LAGS = (1, 5, 10, 20)
+#: A channel whose filtered readings span less than this share of its declared range
+#: over the demonstrations is still: no sensor resolves it (1 %: the smallest sensor
+#: noise of ``experiment faults`` is 0.5 % of the range per reading).
+STILL_SHARE = 0.01
+#: What :func:`select_inputs` does with echoes: ``"allow"`` (the criterion decides) or
+#: ``"exclude"`` (left out before the selection).
+ECHO_POLICIES = ("allow", "exclude")
 
 
 @dataclass(frozen=True)
@@ -79,28 +86,48 @@ def select_inputs(
     margin: float = DEFAULT_MARGIN,
     n_neighbors: int = DEFAULT_NEIGHBORS,
     n_folds: int = DEFAULT_FOLDS,
+    echoes: str = "allow",
     **sblm_params: Any,
 ) -> InputChoice:
     """Choose the SBLM's input channels from the demonstrations alone.
 
-    Greedy forward selection: start from no channel, add the candidate that lowers the
-    criterion most, stop when none lowers it by ``margin`` (relative, 2 %) or
-    ``max_inputs`` are chosen. At least one channel is always chosen (the SBLM needs one).
+    Greedy forward selection: start from the goal's channels (none if the dataset
+    states no goal), add the candidate that lowers the criterion most, stop when none
+    lowers it by ``margin`` (relative, 2 %) or ``max_inputs`` are chosen. At least one
+    channel is always chosen (the SBLM needs one).
 
-    Criterion (and why), in two steps, from the nominal demonstrations alone:
+    Criterion (and why), in two steps, from the demonstrations alone, corrective ones
+    included (``collect --corrections``): they show what the teacher reacts to, so a
+    channel that only a recovery moves (the approach's bearing) is seen to matter, even
+    by a model that does not learn from them (``learn_corrections=False``):
 
-    1. *Echoes of the robot's own commands are left out.* A channel is an echo when the
-       commands move it (the last command explains at least half of its change per cycle
-       that its own last value leaves unexplained, ``ECHO_MOVED``) *and* its value is
-       predicted by the last commands alone (held-out R² >= 0.9 from the commands 1, 5, 10
-       and 20 cycles back, ``ECHO_R2``): the wheel-speed readings. Such a channel
-       predicts the commands very well offline, yet tells a generator nothing about the
-       world: in closed loop it feeds the generator's own output back (the copycat
-       problem of imitation learning; the SBLM's ``command_history`` note), which is what
-       the thesis found by hand (angular velocity on turn, linear velocity on approach,
-       tables 6.3/6.4). Both conditions are needed: a reading the teacher reacts to is
-       predicted by the commands too, but they do not move it (a proximity reading); a
-       bearing is moved by them, but its value keeps where the robot started.
+    1. *What is read whatever the criterion says, and what is never read.*
+
+       - The channels the dataset's goal is stated in (``metadata["goal"]``): a model
+         that does not read them cannot tell that it has arrived.
+       - Still channels are left out: readings that keep within ``STILL_SHARE`` (1 %) of
+         their declared range over the demonstrations (the forward speed of a turn in
+         place). No sensor resolves them, yet the
+         nearest neighbours below would read their rounding residue, which follows the
+         commands.
+       - Echoes of the robot's own commands are found and named. A channel is an echo
+         when the commands move it (the last command explains at least half of its
+         change per cycle that its own last value leaves unexplained, ``ECHO_MOVED``)
+         *and* its value is predicted by the last commands alone (held-out R² >= 0.9
+         from the commands 1, 5, 10 and 20 cycles back, ``ECHO_R2``): the wheel-speed
+         readings. Offline such a channel predicts the commands very well; in closed
+         loop it feeds the generator's own output back (the copycat problem of
+         imitation learning), which is what the thesis found by hand (tables 6.3/6.4:
+         angular velocity hurt the turn, linear velocity the approach). With
+         ``echoes="exclude"`` they are left out. The default, ``"allow"``, lets the
+         criterion decide, because measured here they do not hurt: with the default
+         preset's onset clock the criterion leaves them out of the turn by itself, and
+         without the clock (the thesis preset) they carry the start-up motion the flat
+         start window does not (docs/results.md, "Inputs chosen from the
+         demonstrations"). Both conditions are needed: a reading the teacher reacts
+         to is predicted by the commands too, but they do not move it (a proximity
+         reading); a bearing is moved by them, but its value keeps where the robot
+         started.
     2. *Greedy forward selection on a held-out error.* Each subset of the remaining
        channels is scored by the held-out squared error, over ``n_folds`` folds of whole
        demonstrations (folds drawn from ``random_state``), of a k-nearest-neighbour
@@ -133,6 +160,8 @@ def select_inputs(
         Least relative decrease of the criterion for a channel to join.
     n_neighbors, n_folds
         The regression's neighbours and the number of folds of episodes.
+    echoes
+        ``"allow"`` (echoes are candidates like the rest) or ``"exclude"``.
     **sblm_params
         SBLM parameters; ``cutoff_hz`` and ``onset_clock`` shape the features.
 
@@ -142,7 +171,7 @@ def select_inputs(
     """
     from sklearn.neighbors import KNeighborsRegressor
 
-    from behavior_hmm.models._sblm import SBLM, nominal_episodes
+    from behavior_hmm.models._sblm import SBLM
 
     if not isinstance(dataset, Dataset):
         raise ConfigError(f"select_inputs expects a behavior_hmm.data.Dataset, got {type(dataset)}")
@@ -161,10 +190,13 @@ def select_inputs(
         raise ConfigError(f"max_inputs must be an integer >= 1, got {max_inputs!r}")
     if not 0 <= margin < 1:
         raise ConfigError(f"margin must lie in [0, 1), got {margin!r}")
+    if echoes not in ECHO_POLICIES:
+        raise ConfigError(f"echoes must be one of {', '.join(ECHO_POLICIES)}, got {echoes!r}")
     params = SBLM(inputs=names[:1], **sblm_params)  # its defaults and checks
     params.check_params()
 
-    ds = dataset.subset(np.flatnonzero(nominal_episodes(dataset)))
+    # every demonstration, corrective ones included: they show what the teacher reacts to
+    ds = dataset
     if len(ds) < 2:
         raise ConfigError("select_inputs needs at least two demonstrations to hold one out")
     lengths = ds.lengths
@@ -213,10 +245,20 @@ def select_inputs(
         own = held_out(raw_prev[:, [j]], change[:, [j]])
         both = held_out(np.hstack([raw_prev[:, [j]], history[:, :n_commands]]), change[:, [j]])
         moved[c] = 0.0 if own <= 1e-12 else max(0.0, 1.0 - both / own)
-    echoes = tuple(c for c in names if echo_r2[c] >= ECHO_R2 and moved[c] >= ECHO_MOVED)
-    pool = tuple(c for c in names if c not in echoes)
-    all_echoes = not pool
-    if all_echoes:  # nothing else to read: choose among them all the same
+    echo_names = tuple(c for c in names if echo_r2[c] >= ECHO_R2 and moved[c] >= ECHO_MOVED)
+    # The goal's channels are read whatever the criterion says: a model that does not
+    # read them cannot tell that it has arrived.
+    goal = dataset.metadata.get("goal")
+    required = tuple(c for c in names if isinstance(goal, Mapping) and c in goal)
+    # Still channels (a reading that keeps within 1 % of its range, e.g. the forward speed
+    # of a turn in place) carry no information a sensor could resolve; the nearest
+    # neighbours would read their rounding residue, which follows the commands.
+    spread = np.ptp(x, axis=0) / 2.0  # x is normalized onto [-1, 1]
+    still = tuple(c for j, c in enumerate(names) if spread[j] < STILL_SHARE and c not in required)
+    left_out = still + (echo_names if echoes == "exclude" else ())
+    pool = tuple(c for c in names if c not in left_out)
+    all_out = len(pool) == len(required)
+    if all_out and not required:  # nothing else to read: choose among them all the same
         pool = names
 
     def score(subset: tuple[str, ...]) -> float:
@@ -224,9 +266,11 @@ def select_inputs(
         return held_out(np.hstack([base_x, x[:, cols]]), y)
 
     scores: dict[tuple[str, ...], float] = {(): score(())}
-    chosen: tuple[str, ...] = ()
+    chosen: tuple[str, ...] = required
+    if chosen:
+        scores[chosen] = score(chosen)
     stop_note = ""
-    while len(chosen) < min(max_inputs, len(pool)):
+    while len(chosen) < min(max(max_inputs, len(required)), len(pool)):
         tried = {c: score((*chosen, c)) for c in pool if c not in chosen}
         for c, value in tried.items():
             scores[(*chosen, c)] = value
@@ -242,22 +286,36 @@ def select_inputs(
         chosen = (*chosen, best)
     else:
         stop_note = f"; stopped at max_inputs={max_inputs}" if len(chosen) < len(pool) else ""
+    path_steps: list[tuple[str, ...]] = [(), required] + [
+        chosen[:k] for k in range(len(required) + 1, len(chosen) + 1)
+    ]
     path = " -> ".join(
-        f"{{{','.join(chosen[:k])}}} {scores[chosen[:k]]:.4g}" for k in range(len(chosen) + 1)
+        f"{{{','.join(t)}}} {scores[t]:.4g}" for t in dict.fromkeys(path_steps) if t in scores
     )
-    echo_note = (
-        "left out as echoes of the robot's own commands (moved by them and predicted by the "
-        "last commands: "
-        + ", ".join(f"{c} R² {echo_r2[c]:.2f}, change {moved[c]:.0%}" for c in echoes)
-        + ("; all are, so they are candidates all the same); " if all_echoes else "); ")
-        if echoes
-        else ""
-    )
+    notes = []
+    if required:
+        which = "channel" if len(required) == 1 else "channels"
+        notes.append(f"{', '.join(required)} read first (the goal's {which})")
+    if still:
+        notes.append(
+            f"{', '.join(still)} left out as still (within {STILL_SHARE:.0%} of the range)"
+        )
+    if echo_names:
+        what = "left out" if echoes == "exclude" else "candidates like the rest"
+        notes.append(
+            f"echoes of the robot's own commands, {what} (moved by them and predicted by "
+            "the last commands: "
+            + ", ".join(f"{c} R² {echo_r2[c]:.2f}, change {moved[c]:.0%}" for c in echo_names)
+            + ")"
+        )
+    if all_out and not required:
+        notes.append("every channel was left out, so all are candidates all the same")
     reason = (
-        f"Chose {','.join(chosen)} from {','.join(names)}: {echo_note}greedy forward "
-        f"selection on the held-out error (over {k_folds} folds of whole demonstrations) of "
-        f"a {n_neighbors}-nearest-neighbour prediction of the commands from the onset clock "
-        f"and the channels: {path}{stop_note}."
+        f"Chose {','.join(chosen)} from {','.join(names)}: "
+        + "".join(f"{n}; " for n in notes)
+        + f"greedy forward selection on the held-out error (over {k_folds} folds of whole "
+        f"demonstrations) of a {n_neighbors}-nearest-neighbour prediction of the commands "
+        f"from the onset clock and the channels: {path}{stop_note}."
     )
     return InputChoice(
         inputs=chosen,

@@ -24,6 +24,7 @@ from behavior_hmm.data import DEFAULT_CUTOFF_HZ
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK
 from behavior_hmm.generators._motion import DEFAULT_GENERATOR_EPOCHS
+from behavior_hmm.models._goals import AUTO_INPUTS
 
 #: Preset names, thesis first.
 PRESETS: Final[tuple[str, ...]] = ("thesis", "default")
@@ -245,6 +246,12 @@ OPTIONS: Final[tuple[Option, ...]] = (
         {"SBLM": {"generator_network": "elman"}},
         "recurrent Elman generators trained by backpropagation through time (thesis 3.4.3)",
         paired=("onset_clock",),
+    ),
+    Option(
+        "auto_inputs",
+        {"SBLM": {"inputs": AUTO_INPUTS}},
+        "each simple behavior's input channels chosen from its demonstrations "
+        "(select_inputs; thesis 7.2's feature selection); a CBLM keeps its task's inputs",
     ),
 )
 

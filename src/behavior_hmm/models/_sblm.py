@@ -43,13 +43,15 @@ from behavior_hmm.models._base import (
     LearnedBehavior,
     dataset_hash,
 )
-from behavior_hmm.models._goals import check_goal, check_input_names
+from behavior_hmm.models._goals import AUTO_INPUTS, check_goal, check_input_names
 
 FloatArray = NDArray[np.float64]
 
 #: Goal channels (and nominal goals) of a dataset whose metadata names none (a log
 #: imported without a registered behavior): the data contract's two goal channels.
 _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
+#: Most channels a model file's chosen inputs may list (select_inputs' max_inputs is 3).
+_MAX_AUTO_INPUTS = 64
 
 
 def margin_rows(
@@ -84,7 +86,10 @@ class SBLM(LearnedBehavior):
     Parameters
     ----------
     inputs
-        Sensor channels the model reads, e.g. ``("angle",)`` or ``("distance", "angle")``.
+        Sensor channels the model reads, e.g. ``("angle",)`` or ``("distance", "angle")``,
+        or ``"auto"``: :func:`~behavior_hmm.models.select_inputs` picks them from the
+        demonstrations at ``fit`` (thesis 7.2's feature selection; the choice in
+        ``inputs_``, its reason in ``provenance_["inputs_selection"]``).
     primitive_params, observation_params
         Overrides of CobART's motion-primitive / observation presets (thesis table 4.2).
     cutoff_hz
@@ -313,12 +318,21 @@ class SBLM(LearnedBehavior):
         if isinstance(held, bool) or not isinstance(held, int | float) or not 0 <= held < 1:
             raise ConfigError(f"generator_test_fraction must lie in [0, 1), got {held!r}")
 
+    @property
+    def auto_inputs(self) -> bool:
+        """Whether ``fit`` chooses the inputs (``inputs="auto"``)."""
+        return isinstance(self.inputs, str) and self.inputs == AUTO_INPUTS
+
     def _checked_inputs(self, available: Sequence[str] | None = None) -> tuple[str, ...]:
-        """The inputs, each one of ``available`` (a dataset's channels; default: all known)."""
+        """The inputs, each one of ``available`` (a dataset's channels; default: all known);
+        ``()`` for ``inputs="auto"`` (chosen at ``fit``)."""
         inputs = (self.inputs,) if isinstance(self.inputs, str) else tuple(self.inputs)
-        if not inputs:
-            raise ConfigError("inputs must name at least one sensor channel")
-        check_input_names(inputs, available)
+        if self.auto_inputs:
+            inputs = ()
+        elif not inputs:
+            raise ConfigError("inputs must name at least one sensor channel (or 'auto')")
+        else:
+            check_input_names(inputs, available)
         if len(set(inputs)) != len(inputs):
             raise ConfigError(f"inputs repeat a channel: {inputs}")
         if self.generator_network not in GENERATOR_NETWORKS:
@@ -364,7 +378,16 @@ class SBLM(LearnedBehavior):
     def _fit_setup(self, dataset: Any) -> tuple[tuple[str, ...], Any]:
         """Fit step 1: the parameters, and the inputs among the dataset's channels."""
         self.check_params()
-        return self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS)), None
+        inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
+        if inputs or not isinstance(dataset, Dataset):
+            return inputs, None
+        from behavior_hmm.models._inputs import select_inputs
+
+        params = self.get_params()
+        seed = params.pop("random_state")
+        del params["inputs"]
+        choice = select_inputs(dataset, random_state=seed, **params)
+        return choice.inputs, choice
 
     def _fit_rows(self, dataset: Dataset, inputs: tuple[str, ...], context: Any) -> tuple[Any, Any]:
         """Fit step 2: the nominal demonstrations, and the corrective ones it learns from."""
@@ -481,6 +504,8 @@ class SBLM(LearnedBehavior):
         self.stops_ = np.array(raw[finals], dtype=np.float64)
         self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
         self.max_steps_ = int(max(500, 2 * int(dataset.lengths.max())))
+        if context is not None:  # inputs="auto": say what select_inputs chose and why
+            self.provenance_["inputs_selection"] = f"{context.summary()}: {context.reason}"
 
     # ------------------------------------------------------------- partial_fit
     def partial_fit(
@@ -562,6 +587,7 @@ class SBLM(LearnedBehavior):
                 f"partial_fit expects a behavior_hmm.data.Dataset, got {type(dataset)}"
             )
         inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
+        inputs = inputs or self.inputs_  # inputs="auto": the channels chosen at the fit
         self._check_update(dataset, inputs)
         dataset = (
             without_unseen_corrections(dataset, inputs)
@@ -871,6 +897,17 @@ class SBLM(LearnedBehavior):
         model = cls(**params)
         model.check_params()
         inputs = model._checked_inputs()
+        if not inputs:  # inputs="auto": the channels the fit chose
+            names = state["inputs"]
+            if not isinstance(names, list) or not 0 < len(names) <= _MAX_AUTO_INPUTS:
+                raise ModelFileError("state inputs must be a list of sensor channels")
+            inputs = tuple(str(_modelfile.check_text(n, "input channel")) for n in names)
+            try:
+                check_input_names(inputs)
+            except ConfigError as err:
+                raise ModelFileError(str(err)) from None
+            if len(set(inputs)) != len(inputs):
+                raise ModelFileError("state inputs repeat a channel")
         if list(inputs) != list(state["inputs"]):
             raise ModelFileError("inputs in params and state disagree")
         pipeline = SignalPipeline.from_dict(_modelfile.check_mapping(state["pipeline"], "pipeline"))

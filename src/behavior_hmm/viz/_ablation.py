@@ -47,6 +47,8 @@ def ablation_markdown(results: dict[str, Any]) -> str:
             label = row["label"]
             if not row["switched"] and not row.get("options"):
                 label = f"**{label} preset**"
+            if row.get("chosen_inputs"):
+                label += f" (chose {row['chosen_inputs']})"
             if "over_seeds" in row:
                 success = _spread(row["over_seeds"], "success_rate_mean")
                 goals = f"{_spread(row['over_seeds'], 'goal_reached')} of {row['n']}"
@@ -98,6 +100,8 @@ def plot_ablation(results: dict[str, Any]) -> Figure:
             text = f"{value:.1f} % ({goals}/{row['n']})"
             if "over_seeds" in row:
                 text = f"{value:.1f} ± {error:.1f} % ({goals:.1f}/{row['n']})"
+            if row.get("chosen_inputs"):  # inputs="auto": the channels it chose
+                text += "\nchose " + row["chosen_inputs"].replace("; ", "\n")
             ax.text(value + error + 0.5, y, text, va="center", fontsize=7)
         floor = rows[0]["zero_floor_mean"]
         ax.axvline(floor, color="grey", lw=1.2, label=f"all-zero floor {floor:.1f} %")
