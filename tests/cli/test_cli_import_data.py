@@ -251,3 +251,54 @@ def test_import_lerobot_errors(invoke: Invoke, tmp_path: Path, turn_demos: Datas
     )
     assert "distance, linear_velocity, angle, angular_velocity" in line
     assert not out.exists()
+
+
+def _point_mass_log(path: Path) -> Path:
+    """A 2-D point mass driven by velocity commands toward (0, 0): its own channels."""
+    lines = ["episode,t,x,y,vx,vy"]
+    for ep, (x0, y0) in enumerate(((0.4, 0.2), (-0.3, 0.5), (0.1, -0.6))):
+        x, y = x0, y0
+        for k in range(120):
+            vx, vy = -2.0 * x, -2.0 * y
+            lines.append(f"{ep},{k * CONTROL_PERIOD:.3f},{x:.6f},{y:.6f},{vx:.6f},{vy:.6f}")
+            x, y = x + vx * CONTROL_PERIOD, y + vy * CONTROL_PERIOD
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def test_a_mapping_file_declares_the_robots_channels_commands_and_goal(
+    invoke: Invoke, tmp_path: Path
+) -> None:
+    """``channel``, ``command`` and ``[goal]`` in the mapping file say what ``--channel``,
+    ``--command`` and ``--goal`` say; the command line replaces them as a whole."""
+    log = _point_mass_log(tmp_path / "mass.csv")
+    mapping = tmp_path / "mass.toml"
+    mapping.write_text(
+        'channel = ["x:m:-1:1:0.01", "y:m:-1:1:0.01"]\n'
+        'command = ["vx:m/s:-2:2", "vy:m/s:-2:2"]\n'
+        "[goal]\nx = 0.0\ny = 0.0\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "mass.parquet"
+    result = invoke(["import-csv", log, "--map-file", mapping, "-o", out])
+    assert result.exit_code == 0, result.output
+    ds = data.read(out)
+    assert set(ds.sensor_channels) == {"x", "y"}
+    assert [spec.name for spec in ds.command_specs] == ["vx", "vy"]
+    assert ds.metadata["goal"] == {"x": 0.0, "y": 0.0}
+    # --goal on the command line wins over the file's [goal]
+    result = invoke(["import-csv", log, "--map-file", mapping, "--goal", "x=0.05", "-o", out])
+    assert result.exit_code == 0, result.output
+    assert data.read(out).metadata["goal"] == {"x": 0.05}
+    before = digest(out)
+    # a goal that is not a number, and a goal on a channel without a tolerance: one line
+    # naming the file or the field, nothing written
+    mapping.write_text(mapping.read_text(encoding="utf-8") + 'z = "far"\n', encoding="utf-8")
+    assert_user_error(invoke(["import-csv", log, "--map-file", mapping, "-o", out]), "[goal] z")
+    mapping.write_text(
+        'channel = ["x:m:-1:1", "y:m:-1:1:0.01"]\ncommand = ["vx:m/s:-2:2", "vy:m/s:-2:2"]\n'
+        "[goal]\nx = 0.0\n",
+        encoding="utf-8",
+    )
+    assert_user_error(invoke(["import-csv", log, "--map-file", mapping, "-o", out]), "goal")
+    assert digest(out) == before

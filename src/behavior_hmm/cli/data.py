@@ -94,6 +94,15 @@ ChannelOption = Annotated[
     ),
 ]
 
+GoalOption = Annotated[
+    str | None,
+    typer.Option(
+        "--goal",
+        help="Where the demonstrations aim, CHANNEL=VALUE[,...] on channels with a goal "
+        "tolerance (e.g. x=0,y=0); default: the goal of a registered --behavior",
+    ),
+]
+
 CommandOption = Annotated[
     list[str] | None,
     typer.Option(
@@ -613,19 +622,35 @@ def _derive(option: str | None, options: dict[str, Any]) -> tuple[str, ...]:
     return parse_derive(option if option is not None else options.get("derive"))
 
 
-def _metadata(behavior: str | None, options: dict[str, Any]) -> dict[str, Any]:
-    """The imported dataset's behavior, and the goal channels of a registered behavior.
+def _metadata(behavior: str | None, goal: str | None, options: dict[str, Any]) -> dict[str, Any]:
+    """The imported dataset's behavior and goal: ``--goal`` (else the mapping file's
+    ``goal`` table), else the goal of a registered behavior.
 
-    The goal travels in the metadata (``goal``), so a model learns where a registered
-    behavior's demonstrations aim without knowing its name (docs/robots.md).
+    The goal travels in the metadata (``goal``), so a model learns where the
+    demonstrations aim without knowing the behavior's name (docs/robots.md); the dataset's
+    checks refuse a goal on a channel without a tolerance.
     """
     from behavior_hmm.teach import BEHAVIORS
 
     name = behavior if behavior is not None else options.get("behavior")
-    if name is None:
-        return {}
-    spec = BEHAVIORS.get(str(name))
-    return {"behavior": name} if spec is None else {"behavior": name, "goal": dict(spec.goal)}
+    out: dict[str, Any] = {} if name is None else {"behavior": name}
+    if goal is not None:
+        out["goal"] = parse_assignments(goal, "--goal")
+    elif "goal" in options:
+        out["goal"] = dict(options["goal"])
+    elif name is not None and str(name) in BEHAVIORS:
+        out["goal"] = dict(BEHAVIORS[str(name)].goal)
+    return out
+
+
+def _declared(
+    channel: list[str] | None, command: list[str] | None, options: dict[str, Any]
+) -> tuple[list[dict[str, Any]], list[dict[str, Any] | str] | None]:
+    """The sensor and command channels ``--channel`` / ``--command`` declare, else the
+    mapping file's ``channel`` / ``command`` lists (the same NAME:UNIT:LO:HI strings)."""
+    channels = channel if channel else list(options.get("channel", []))
+    commands = command if command else list(options.get("command", []))
+    return channel_options(channels), command_options(commands) if commands else None
 
 
 def channel_options(items: list[str]) -> list[dict[str, Any]]:
@@ -708,16 +733,8 @@ def import_csv(
     map_file: MapFileOption = None,
     behavior: BehaviorOption = None,
     channel: ChannelOption = None,
-    command: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--command",
-            help="The robot's command channels in action order, replacing our two wheels: "
-            "NAME:UNIT:LO:HI[:REST] for a channel of yours (REST: the command that holds "
-            "the robot still, default 0), or a known name (left, right); e.g. --command "
-            "left --command right --command grip:m/s:-0.05:0.05 (repeatable)",
-        ),
-    ] = None,
+    command: CommandOption = None,
+    goal: GoalOption = None,
 ) -> None:
     """Convert a CSV log into a validated dataset (same checks as Parquet).
 
@@ -736,7 +753,7 @@ def import_csv(
 
     mapping, units, options = _merged(map_, unit, map_file, "csv")
     derived = _derive(derive, options)
-    channels = channel_options(channel or [])
+    channels, commands = _declared(channel, command, options)
     text = delimiter if delimiter is not None else str(options.get("delimiter", ","))
     sep = "\t" if text in ("tab", "\\t") else text
     if len(sep) != 1:
@@ -748,13 +765,13 @@ def import_csv(
             mapping=mapping,
             units=units,
             drop=(drop or []) + [str(d) for d in options.get("drop", [])],
-            metadata=_metadata(behavior, options),
+            metadata=_metadata(behavior, goal, options),
             split_on_time_reset=split_on_time_reset or bool(options.get("split_on_time_reset")),
             delimiter=sep,
             derive=derived,
             resample=resample or bool(options.get("resample")),
             channels=channels,
-            commands=command_options(command) if command else None,
+            commands=commands,
         )
     data.write(dataset, out)
     _wrote(out, dataset)
@@ -806,6 +823,7 @@ def import_bag(
     behavior: BehaviorOption = None,
     channel: ChannelOption = None,
     command: CommandOption = None,
+    goal: GoalOption = None,
 ) -> None:
     """Convert ROS 1 / ROS 2 bags into a validated dataset (needs the 'bags' extra).
 
@@ -827,6 +845,7 @@ def import_bag(
     from behavior_hmm.sim import RobotParams
 
     mapping, units, options = _merged(map_, unit, map_file, "bag")
+    channels, commands = _declared(channel, command, options)
     derived = _derive(derive, options)
     spec = RobotParams()
     twist_topic = twist if twist is not None else options.get("twist")
@@ -846,9 +865,9 @@ def import_bag(
             split_gap=None if gap is None else float(gap),
             episode_topic=counter,
             derive=derived,
-            metadata=_metadata(behavior, options),
-            channels=channel_options(channel or []),
-            commands=command_options(command) if command else None,
+            metadata=_metadata(behavior, goal, options),
+            channels=channels,
+            commands=commands,
         )
     data.write(dataset, out)
     _wrote(out, dataset)
@@ -874,6 +893,7 @@ def import_lerobot(
     behavior: BehaviorOption = None,
     channel: ChannelOption = None,
     command: CommandOption = None,
+    goal: GoalOption = None,
 ) -> None:
     """Convert a LeRobot dataset (v3.0 layout, local files only) into a dataset.
 
@@ -894,6 +914,7 @@ def import_lerobot(
     from behavior_hmm.data._lerobot import import_lerobot as read_lerobot
 
     mapping, units, options = _merged(map_, unit, map_file, "lerobot")
+    channels, commands = _declared(channel, command, options)
     derived = _derive(derive, options)
     check_outputs({"FOLDER": folder, "--map-file": map_file}, {"-o": out})
     with _reported_warnings():
@@ -903,9 +924,9 @@ def import_lerobot(
             units=units,
             derive=derived,
             resample=resample or bool(options.get("resample")),
-            metadata=_metadata(behavior, options),
-            channels=channel_options(channel or []),
-            commands=command_options(command) if command else None,
+            metadata=_metadata(behavior, goal, options),
+            channels=channels,
+            commands=commands,
         )
     data.write(dataset, out)
     _wrote(out, dataset)

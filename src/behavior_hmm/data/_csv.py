@@ -26,6 +26,7 @@ from behavior_hmm._safe_read import read_text
 from behavior_hmm.data._channels import (
     COMMAND_CHANNELS,
     CONTROL_PERIOD,
+    SENSOR_CHANNELS,
     ChannelSpec,
     channel_from_metadata,
 )
@@ -53,6 +54,7 @@ from behavior_hmm.data._validate import (
     check_table,
     declared_channels,
     declared_commands,
+    own_channels_only,
     suggest,
 )
 from behavior_hmm.errors import ConfigError, DatasetError
@@ -371,6 +373,8 @@ def _resolve_header(
                 f"--derive {name}: the file has a '{name}' column already "
                 f"(ignore it with --drop {_name(header[index[name]])} to derive it instead)"
             )
+    if own_channels_only(index, extra):  # a robot of its own: none of our four sensors
+        needed = [c for c in needed if c not in SENSOR_CHANNELS]
     required = [c for c in needed if c != "episode" and c not in derive]
     missing = [c for c in required if c not in index]
     missing_extra = [c for c in extra if c not in index]
@@ -739,6 +743,7 @@ def import_csv(
     index = _resolve_header(
         header, mapping, set(drop), derived, file, extra_names, commands=command_names
     )
+    own_only = own_channels_only(index, extra_names)  # none of our four sensors
     quoted = '"' in text
     del text  # pyarrow parses ``body``
     columns, names = _columns(
@@ -750,26 +755,30 @@ def import_csv(
         wanted=[
             name
             for name in (*FLOAT_COLUMNS, *extra_names, *command_names)
-            if name not in derived and (name not in COMMAND_CHANNELS or name in command_names)
+            if name not in derived
+            and (name not in COMMAND_CHANNELS or name in command_names)
+            and not (own_only and name in SENSOR_CHANNELS)
         ],
         factors=factors,
     )
     del body  # the cells are columns now: free them before finish copies those
     episode = columns["episode"]
 
-    angle = columns["angle"]
-    columns["angle"], absurd = wrap_imported_angles(angle)
-    if absurd is not None:
-        i = absurd
-        raise _cell_error(
-            f"absurd angle {angle[i]:g} deg (beyond ±{MAX_UNWRAPPED_ANGLE:g} deg; wrong units?)",
-            i,
-            "angle",
-            file,
-            lines,
-            episode,
-            names,
-        )
+    if "angle" in columns:  # a robot of its own may have no bearing
+        angle = columns["angle"]
+        columns["angle"], absurd = wrap_imported_angles(angle)
+        if absurd is not None:
+            i = absurd
+            raise _cell_error(
+                f"absurd angle {angle[i]:g} deg (beyond ±{MAX_UNWRAPPED_ANGLE:g} deg; "
+                "wrong units?)",
+                i,
+                "angle",
+                file,
+                lines,
+                episode,
+                names,
+            )
 
     source: dict[str, Any] = {"format": "csv", "file": p.name, "mapping": mapping, "units": units}
     if names is not None:

@@ -15,19 +15,32 @@ of its logs beside them::
     angle = "rad"
     t = "ms"
 
-Options given on the command line win over the file's, key by key.
+A robot's own channels and its goal are declared as the options declare them::
+
+    channel = ["ir0:m:0:0.1", "x:m:-1:1:0.01"]   # --channel NAME:UNIT:LO:HI[:TOL]
+    command = ["vx:m/s:-0.5:0.5", "vy:m/s:-0.5:0.5"]   # --command, in action order
+
+    [goal]         # --goal x=0,y=0
+    x = 0.0
+    y = 0.0
+
+Options given on the command line win over the file's, key by key (``--channel``,
+``--command`` and ``--goal`` replace the file's list or table as a whole).
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Final
+from typing import Any, Final, TypeVar
 
 from behavior_hmm._safe_read import config_error, load_toml
 from behavior_hmm.data._validate import suggest
 from behavior_hmm.errors import ConfigError
+
+T = TypeVar("T")
 
 #: Characters of a name or value in a mapping file (a column, topic, unit, behavior).
 MAX_VALUE_CHARS: Final[int] = 256
@@ -37,6 +50,9 @@ MAX_ITEMS: Final[int] = 1024
 SHOWN_CHARS: Final[int] = 80
 
 #: Keys each importer's mapping file may hold (besides the tables ``map`` and ``unit``).
+#: Keys every importer's mapping file may hold: the robot's own channels and the goal.
+DECLARATION_KEYS: Final[dict[str, type]] = {"channel": list, "command": list}
+
 OPTION_KEYS: Final[dict[str, dict[str, type | tuple[type, ...]]]] = {
     "csv": {
         "drop": list,
@@ -103,18 +119,25 @@ def _bounded(value: str, where: str, file: str) -> None:
         )
 
 
-def _table(doc: dict[str, Any], key: str, file: str) -> dict[str, str]:
+def _table(
+    doc: dict[str, Any],
+    key: str,
+    file: str,
+    parse: Callable[[object, str, str], T],
+    lines: str,
+) -> dict[str, T]:
+    """The table ``[key]`` (empty if absent), each value read by ``parse``."""
     value = doc.get(key, {})
     if not isinstance(value, dict):
-        raise ConfigError(f"{file}: '{key}' must be a table ([{key}]) of NAME = \"VALUE\" lines")
+        raise ConfigError(f"{file}: '{key}' must be a table ([{key}]) of {lines} lines")
     if len(value) > MAX_ITEMS:
         raise ConfigError(f"{file}: [{key}] has {len(value):,} entries (limit {MAX_ITEMS:,})")
-    out: dict[str, str] = {}
+    out: dict[str, T] = {}
     for name, item in value.items():
         label = f"[{key}] {_key(name)}"
         if len(name) > MAX_VALUE_CHARS:
             raise ConfigError(f"{file}: {label} is longer than {MAX_VALUE_CHARS} characters")
-        out[str(name)] = _string(item, label, file)
+        out[str(name)] = parse(item, label, file)
     return out
 
 
@@ -143,8 +166,8 @@ def read_map_file(path: str | os.PathLike[str], kind: str) -> MapFile:
     except ValueError as exc:  # e.g. an integer of more than 4,300 digits
         reason = " ".join(str(exc).split())[: 2 * SHOWN_CHARS]
         raise ConfigError(f"{file}: not valid TOML ({reason})") from None
-    allowed = OPTION_KEYS[kind]
-    known = ("map", "unit", *allowed)
+    allowed = {**OPTION_KEYS[kind], **DECLARATION_KEYS}
+    known = ("map", "unit", "goal", *allowed)
     for key in doc:
         if key not in known:
             raise ConfigError(
@@ -174,7 +197,26 @@ def read_map_file(path: str | os.PathLike[str], kind: str) -> MapFile:
         elif isinstance(value, float) and not math.isfinite(value):
             raise ConfigError(f"{file}: '{key}' must be a finite number, got {_shown(value)}")
         options[key] = value
-    return MapFile(_table(doc, "map", file), _table(doc, "unit", file), options)
+    if "goal" in doc:
+        options["goal"] = _table(doc, "goal", file, _number, "CHANNEL = NUMBER")
+        if not options["goal"]:
+            raise ConfigError(f"{file}: [goal] is empty; e.g. [goal] x = 0.0")
+    text = 'NAME = "VALUE"'
+    return MapFile(
+        _table(doc, "map", file, _string, text), _table(doc, "unit", file, _string, text), options
+    )
+
+
+def _number(value: object, where: str, file: str) -> float:
+    """A finite number of magnitude at most 1e6 (a goal in a channel's unit)."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or abs(value) > 1e6
+        or not math.isfinite(value)
+    ):
+        raise ConfigError(f"{file}: {where} must be a finite number, got {_shown(value)}")
+    return float(value)
 
 
 def _check_delimiter(value: str, file: str) -> None:
