@@ -135,3 +135,26 @@ def test_generators_hold_out_demonstrations_unless_asked(turn_data: Dataset) -> 
     for bad in (-0.1, 1.0, True, "0.2"):
         with pytest.raises(ConfigError, match="generator_test_fraction"):
             SBLM(inputs=("angle",), generator_test_fraction=bad).fit(turn_data)
+
+
+def test_shared_generator_init_starts_every_network_from_one(
+    turn_data: Dataset, tmp_path: Path
+) -> None:
+    """``generator_init="shared"`` reaches the generators, changes the trained networks,
+    survives save and load, and is refused for the recurrent generators."""
+    from behavior_hmm.models import load
+
+    params: dict[str, Any] = {"inputs": ("angle",), "epochs": 3}
+    random = SBLM(**params).fit(turn_data)
+    shared = SBLM(**params, generator_init="shared").fit(turn_data)
+    assert random.generators_.init == "random" and shared.generators_.init == "shared"
+    assert not np.array_equal(random.generators_.coefs_[0], shared.generators_.coefs_[0])
+    path = tmp_path / "shared.bhmm"
+    shared.save(path)
+    again = load(path)
+    assert again.generator_init == "shared" and again.generators_.init == "shared"
+    np.testing.assert_array_equal(again.generators_.coefs_[0], shared.generators_.coefs_[0])
+    with pytest.raises(ConfigError, match="generator_init='shared' is for the feed-forward"):
+        SBLM(**params, generator_network="elman", hidden=5, generator_init="shared").fit(turn_data)
+    with pytest.raises(ConfigError, match="generator_init must be one of random, shared"):
+        SBLM(**params, generator_init="warm").check_params()

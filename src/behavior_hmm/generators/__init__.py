@@ -11,6 +11,7 @@ from typing import Final
 from behavior_hmm.generators._motion import (
     DEFAULT_BATCH_SIZE,
     DEFAULT_GENERATOR_EPOCHS,
+    GENERATOR_INITS,
     MotionGenerators,
 )
 from behavior_hmm.generators._recurrent import ElmanGenerators
@@ -26,6 +27,7 @@ GENERATOR_NETWORKS: Final[dict[str, type[MotionGenerators] | type[ElmanGenerator
 __all__ = [
     "DEFAULT_BATCH_SIZE",
     "DEFAULT_GENERATOR_EPOCHS",
+    "GENERATOR_INITS",
     "GENERATOR_NETWORKS",
     "ElmanGenerators",
     "MotionGenerators",

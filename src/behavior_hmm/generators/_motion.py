@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any, NoReturn
+from typing import Any, Final, NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,6 +74,15 @@ class MotionGenerators(Estimator):
     random_state
         Seed; primitive ``p`` draws from ``SeedSequence(random_state, spawn_key=(p,))``,
         so its network does not depend on the other primitives.
+    init
+        Where each primitive's network starts. ``"random"`` (thesis): its own uniform
+        draw. ``"shared"``: the weights of one network first trained, the same way, on
+        every primitive's rows together (its draws from ``SeedSequence(random_state,
+        spawn_key=(SHARED_KEY,))``); each primitive's network then fine-tunes them on its
+        own rows, with its own split and early stopping. With few rows per primitive
+        (few demonstrations) the networks keep what all the rows teach; with many they
+        specialize. A network that :meth:`partial_fit` adds for a new primitive starts
+        from its own draw.
 
     Attributes
     ----------
@@ -107,6 +116,7 @@ class MotionGenerators(Estimator):
         patience: int | None = None,
         min_split_samples: int = 5,
         random_state: int = 0,
+        init: str = "random",
     ) -> None:
         self.window = window
         self.hidden = hidden
@@ -120,6 +130,7 @@ class MotionGenerators(Estimator):
         self.patience = patience
         self.min_split_samples = min_split_samples
         self.random_state = random_state
+        self.init = init
 
     # ------------------------------------------------------------------ params
     def _validated_params(self) -> None:
@@ -137,6 +148,10 @@ class MotionGenerators(Estimator):
         if not isinstance(self.early_stopping, bool | np.bool_):
             raise ConfigError(f"early_stopping must be True or False, got {self.early_stopping!r}")
         _hidden_tuple(self.hidden, 1, self.window)
+        if getattr(self, "init", "random") not in GENERATOR_INITS:
+            raise ConfigError(
+                f"init must be one of {', '.join(GENERATOR_INITS)}, got {self.init!r}"
+            )
 
     def _optimizer_options(self) -> dict[str, Any]:
         """Checked keyword arguments of :func:`train_stack` choosing the update rule.
@@ -189,6 +204,9 @@ class MotionGenerators(Estimator):
         sizes = (n_features, *hidden, n_outputs)
         size = n_params(sizes)
 
+        shared = None
+        if getattr(self, "init", "random") == "shared" and len(x):
+            shared = self._shared_start(sizes, x, y, group)
         rngs = [primitive_rng(int(self.random_state), p) for p in range(n_prim)]
         theta0 = np.zeros((n_prim, size))
         splits: list[tuple[NDArray[np.intp], NDArray[np.intp]]] = []
@@ -202,7 +220,10 @@ class MotionGenerators(Estimator):
                 )
             )
             if rows.size:
+                # drawn either way, so each epoch's order is the same draw for both inits
                 theta0[p] = init_weights(rngs[p], sizes, float(self.init_range))
+                if shared is not None:
+                    theta0[p] = shared
 
         n_train, n_test, result = self._train(theta0, sizes, splits, x, y, rngs)
         theta = result.theta
@@ -218,6 +239,25 @@ class MotionGenerators(Estimator):
         self.best_epoch_ = result.best_epoch
         self._set_shapes()
         return self
+
+    def _shared_start(
+        self,
+        sizes: Any,
+        x: NDArray[np.float64],
+        y: NDArray[np.float64],
+        group: NDArray[Any] | None,
+    ) -> NDArray[np.float64]:
+        """``init="shared"``: the weights of one network trained on every row, as a
+        primitive's is (split, early stopping), from its own draws."""
+        rng = np.random.default_rng(
+            np.random.SeedSequence(int(self.random_state), spawn_key=(SHARED_KEY,))
+        )
+        split = split_rows(
+            np.arange(len(x)), group, rng, float(self.test_fraction), int(self.min_split_samples)
+        )
+        theta = init_weights(rng, sizes, float(self.init_range))[None, :]
+        _, _, result = self._train(theta, sizes, [split], x, y, [rng])
+        return np.array(result.theta[0], dtype=np.float64)
 
     def _train(
         self,
@@ -584,6 +624,13 @@ class AdamGenerators(MotionGenerators):
 
 
 # ---------------------------------------------------------------------- helpers
+#: Where a generator's networks start (:class:`MotionGenerators` ``init``).
+GENERATOR_INITS: Final[tuple[str, ...]] = ("random", "shared")
+#: Spawn key of the shared network's draws (``init="shared"``): no primitive's, whose
+#: keys are ``(p,)`` and ``(p, update)``.
+SHARED_KEY = 2**31
+
+
 def primitive_rng(random_state: int, primitive: int) -> np.random.Generator:
     """The generator of one primitive: independent of how many primitives there are."""
     return np.random.default_rng(np.random.SeedSequence(random_state, spawn_key=(primitive,)))

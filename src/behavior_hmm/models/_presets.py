@@ -248,6 +248,11 @@ OPTIONS: Final[tuple[Option, ...]] = (
         paired=("onset_clock",),
     ),
     Option(
+        "shared_init",
+        {"SBLM": {"generator_init": "shared"}},
+        "each primitive's generator starts from one network trained on all its rows",
+    ),
+    Option(
         "auto_inputs",
         {"SBLM": {"inputs": AUTO_INPUTS}},
         "each simple behavior's input channels chosen from its demonstrations "
