@@ -486,6 +486,9 @@ def experiment_lasa(
         int,
         typer.Option(help="Grid of N x N starts over each shape's workspace (0: none)"),
     ] = 16,
+    preset: PresetOption = None,
+    config: ConfigOption = None,
+    set_: SetOption = None,
     workers: WorkersOption = None,
 ) -> None:
     """The LASA handwriting benchmark: SBLM vs a DMP, BC and BC-strong on 30 shapes.
@@ -510,14 +513,19 @@ def experiment_lasa(
     check_seed(seed)
     shapes = check_shapes(shape)
     check_grid(grid)
-    check_outputs({}, {}, folders={"-o": out})
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM",), preset, config, set_)
+    _, defaults = model_params(("SBLM",), None, None, None)
+    changed = {k: v for k, v in params["SBLM"].items() if defaults["SBLM"].get(k) != v}
     runner = make_run_executor("local", workers, None)
     results = with_progress(
-        f"experiment lasa ({len(shapes)} shapes)",
+        f"experiment lasa ({len(shapes)} shapes, {name} preset)",
         run_lasa_experiment,
         shapes=shapes,
         seed=seed,
         grid=grid,
+        sblm_params=changed or None,
+        preset=name,
         executor=runner,
     )
     _write_report(

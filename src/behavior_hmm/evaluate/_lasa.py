@@ -618,10 +618,14 @@ def run_lasa_experiment(
     sblm_params: Mapping[str, Any] | None = None,
     dmp_weights: int = DMP_WEIGHTS,
     tolerance: float = LASA_TOLERANCE,
+    preset: str = "default",
     progress: Progress | None = None,
     executor: Executor | None = None,
 ) -> dict[str, Any]:
     """Run the LASA benchmark on ``shapes`` (default all 30); one executor task per shape.
+
+    ``sblm_params`` change the SBLM's default preset (default :data:`LASA_SBLM_PARAMS`);
+    ``preset`` is the name the results give it (``"default + recover=True"``).
 
     Returns
     -------
@@ -665,7 +669,7 @@ def run_lasa_experiment(
             "grid": grid,
             "grid_margin": GRID_MARGIN,
             "methods": list(methods),
-            "sblm_preset": "default",
+            "sblm_preset": preset,
             "sblm_params": params,
             "extent": LASA_EXTENT,
             "tolerance": float(tolerance),
@@ -711,7 +715,8 @@ def _fmt(value: Any, digits: int = 0) -> str:
 def lasa_table(results: Mapping[str, Any]) -> str:
     """The markdown tables: summary per protocol, targets, then one row per shape."""
     methods = list(results["settings"]["methods"])
-    lines: list[str] = []
+    preset = results["settings"].get("sblm_preset", "default")
+    lines: list[str] = [f"SBLM: the {preset} preset.", ""]
     for key, label in (("summary", "single-pattern shapes"), ("summary_all", "all shapes")):
         summary = results[key]
         n_shapes = len(summary["shapes"])

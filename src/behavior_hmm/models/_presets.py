@@ -253,6 +253,12 @@ OPTIONS: Final[tuple[Option, ...]] = (
         "each primitive's generator starts from one network trained on all its rows",
     ),
     Option(
+        "recover",
+        {"SBLM": {"recover": True}},
+        "a run that leaves the demonstrations is steered back to the nearest observation "
+        "category's prototype",
+    ),
+    Option(
         "auto_inputs",
         {"SBLM": {"inputs": AUTO_INPUTS}},
         "each simple behavior's input channels chosen from its demonstrations "
