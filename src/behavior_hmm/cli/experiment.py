@@ -508,6 +508,7 @@ def experiment_lasa(
         run_lasa_experiment,
         write_lasa_report,
     )
+    from behavior_hmm.models import preset_params
 
     check_lasa_extra()
     check_seed(seed)
@@ -515,8 +516,8 @@ def experiment_lasa(
     check_grid(grid)
     check_outputs({"--config": config}, {}, folders={"-o": out})
     name, params = model_params(("SBLM",), preset, config, set_)
-    _, defaults = model_params(("SBLM",), None, None, None)
-    changed = {k: v for k, v in params["SBLM"].items() if defaults["SBLM"].get(k) != v}
+    defaults = preset_params("default", "SBLM")  # the experiment's SBLM: these, changed
+    changed = {k: v for k, v in params["SBLM"].items() if defaults.get(k) != v}
     runner = make_run_executor("local", workers, None)
     results = with_progress(
         f"experiment lasa ({len(shapes)} shapes, {name} preset)",
