@@ -554,6 +554,22 @@ def experiment_incremental(
     bc: Annotated[
         bool, typer.Option("--bc/--no-bc", help="Also fine-tune BC-strong stage by stage")
     ] = True,
+    lasa: Annotated[
+        bool,
+        typer.Option(
+            "--lasa",
+            help="Learn LASA handwriting shapes one after another instead (needs the lasa "
+            "extra; --sim and --task do not apply)",
+        ),
+    ] = False,
+    shape: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--shape",
+            help="With --lasa: the sequence of shapes (repeat; default the 26 "
+            "single-pattern shapes in alphabetical order)",
+        ),
+    ] = None,
 ) -> None:
     """Thesis §7.1: learn behaviors one stage at a time; R matrix, ACC, BWT, FWT, times.
 
@@ -562,9 +578,22 @@ def experiment_incremental(
     every stage (the thesis's scheme) and BC-strong fine-tuned stage by stage. Writes
     results.json, timings.json, table.md and incremental_R.png.
 
+    With --lasa the tasks are LASA shapes on the point mass (train on demonstrations
+    1-4, score from the starts of 5-7): an SBLM per shape, one SBLM grown with
+    partial_fit and BC-strong fine-tuned shape by shape; ACC, BWT, REM; writes
+    incremental_lasa_R.png instead.
+
     Example: behavior-hmm experiment incremental --sim kinematic -o results/incremental
     """
     from behavior_hmm._paths import check_outputs
+
+    if lasa:
+        if task:
+            raise ConfigError("--task does not apply with --lasa; give the shapes with --shape")
+        _incremental_lasa(out, shape, seed, preset, config, set_, bc)
+        return
+    if shape:
+        raise ConfigError("--shape needs --lasa")
     from behavior_hmm.evaluate._incremental import (
         DEFAULT_SEQUENCE,
         check_sequence,
@@ -592,6 +621,45 @@ def experiment_incremental(
         lambda: write_incremental_report(results, out),
         out,
         "results.json, timings.json, table.md and incremental_R.png",
+    )
+
+
+def _incremental_lasa(
+    out: Path,
+    shapes: list[str] | None,
+    seed: int,
+    preset: str | None,
+    config: Path | None,
+    set_: list[str] | None,
+    bc: bool,
+) -> None:
+    """``experiment incremental --lasa``: the LASA shapes as a sequence of tasks."""
+    from behavior_hmm._paths import check_outputs
+    from behavior_hmm.evaluate._lasa import check_lasa_extra
+    from behavior_hmm.evaluate._lasa_sequence import check_sequence_shapes, run_lasa_sequence
+    from behavior_hmm.models import preset_params
+    from behavior_hmm.viz._lasa_sequence import write_lasa_sequence_report
+
+    check_lasa_extra()
+    check_seed(seed)
+    names = check_sequence_shapes(shapes)
+    check_outputs({"--config": config}, {}, folders={"-o": out})
+    name, params = model_params(("SBLM",), preset, config, set_)
+    defaults = preset_params("default", "SBLM")  # the SBLMs: these, changed
+    changed = {k: v for k, v in params["SBLM"].items() if defaults.get(k) != v}
+    results = with_progress(
+        f"experiment incremental --lasa ({len(names)} shapes, {name} preset)",
+        run_lasa_sequence,
+        shapes=names,
+        seed=seed,
+        sblm_params=changed,
+        preset=name,
+        bc=bc,
+    )
+    _write_report(
+        lambda: write_lasa_sequence_report(results, out),
+        out,
+        "results.json, timings.json, table.md and incremental_lasa_R.png",
     )
 
 

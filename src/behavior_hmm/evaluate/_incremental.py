@@ -699,28 +699,53 @@ def _concatenated(datasets: Sequence[Any], behavior: str) -> Any:
 
 
 # ---------------------------------------------------------------------- BC-strong
-def _bc_start(dataset: Any, seed: int, params: Mapping[str, Any]) -> Any:
-    """BC-strong trained on ``dataset`` as its ``fit`` trains, the command scale fixed to
-    the robot's top wheel speed (rad/s)."""
+def _bc_start(
+    dataset: Any,
+    seed: int,
+    params: Mapping[str, Any],
+    *,
+    inputs: Sequence[str] = BC_INPUTS,
+    goal: Mapping[str, float] | None = None,
+    top: float | None = None,
+) -> Any:
+    """BC-strong trained on ``dataset`` as its ``fit`` trains, the command scale fixed.
+
+    Parameters
+    ----------
+    dataset, seed, params
+        The first task's demonstrations, the seed and BC-strong's parameter overrides.
+    inputs
+        Input channels; BC's goal input is where each demonstration ends on ``goal``'s
+        channels.
+    goal
+        The default goal (channel -> value); default angle 0, distance 0 (our robot).
+    top
+        Command scale for every command channel (command units): what the robot can
+        command at most, so that a later task's faster commands are not clipped.
+        Default: the robot's top wheel speed (rad/s), else the largest command.
+    """
     from behavior_hmm.data import SignalPipeline
     from behavior_hmm.evaluate._baselines import StrongBehaviorCloning
     from behavior_hmm.models._sblm import without_unseen_corrections
 
-    bc = StrongBehaviorCloning(**{**dict(params), "inputs": BC_INPUTS, "random_state": seed})
-    dataset = without_unseen_corrections(dataset, BC_INPUTS)
+    inputs = tuple(inputs)
+    goal = dict(goal or {"angle": 0.0, "distance": 0.0})
+    bc = StrongBehaviorCloning(**{**dict(params), "inputs": inputs, "random_state": seed})
+    dataset = without_unseen_corrections(dataset, inputs)
     specs = {spec.name: spec for spec in getattr(dataset, "channel_specs", ())}
-    bc.channels_ = {c: specs[c] for c in BC_INPUTS if c in specs}
-    bc.inputs_ = BC_INPUTS
-    bc.goal_channels_ = ("angle", "distance")
+    bc.channels_ = {c: specs[c] for c in inputs if c in specs}
+    bc.inputs_ = inputs
+    bc.goal_channels_ = tuple(goal)
     bc.command_specs_ = tuple(dataset.command_specs)
-    robot = dataset.metadata.get("robot") or {}
-    top = float(robot.get("max_wheel_speed") or np.max(np.abs(dataset.commands)))
-    bc.command_scale_ = top
-    bc.command_scales_ = np.full(len(bc.command_specs_) or 2, top)
-    bc.pipeline_ = SignalPipeline.for_dataset(dataset, BC_INPUTS, bc.cutoff_hz)
+    if top is None:
+        robot = dataset.metadata.get("robot") or {}
+        top = float(robot.get("max_wheel_speed") or np.max(np.abs(dataset.commands)))
+    bc.command_scale_ = float(top)
+    bc.command_scales_ = np.full(len(bc.command_specs_) or 2, float(top))
+    bc.pipeline_ = SignalPipeline.for_dataset(dataset, inputs, bc.cutoff_hz)
     features, targets, groups = _bc_rows(bc, dataset, np.random.default_rng(seed))
-    bc.network_ = bc._network(len(BC_INPUTS)).fit(features, targets, None, groups=groups)
-    bc.default_goal_ = {"angle": 0.0, "distance": 0.0}
+    bc.network_ = bc._network(len(inputs)).fit(features, targets, None, groups=groups)
+    bc.default_goal_ = {c: float(v) for c, v in goal.items()}
     bc.max_steps_ = int(max(500, 2 * int(dataset.lengths.max())))
     bc.behavior_ = str(dataset.metadata.get("behavior", "behavior"))
     return bc
@@ -730,7 +755,7 @@ def _bc_finetune(bc: Any, dataset: Any, seed: int, stage: int) -> None:
     """Fine-tune ``bc``'s network from its weights on ``dataset`` alone (stage >= 2)."""
     from behavior_hmm.models._sblm import without_unseen_corrections
 
-    dataset = without_unseen_corrections(dataset, BC_INPUTS)
+    dataset = without_unseen_corrections(dataset, bc.inputs_)
     features, targets, groups = _bc_rows(bc, dataset, np.random.default_rng([seed, stage]))
     primitive = np.zeros(len(features), dtype=np.int64)
     bc.network_.partial_fit(features, targets, primitive, groups=groups, update=stage - 1)
@@ -775,12 +800,17 @@ def _bc_for_task(bc: Any, task: str) -> Any:
 
 
 # ----------------------------------------------------------------------- helpers
-def _model_sha256(model: Any) -> str:
-    """SHA-256 of the file ``model.save`` writes (a CBLM embeds its components' files)."""
+def _model_file(model: Any) -> bytes:
+    """The bytes of the file ``model.save`` writes (a CBLM embeds its components' files)."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "model.bhmm"
         model.save(path)
-        return hashlib.sha256(path.read_bytes()).hexdigest()
+        return path.read_bytes()
+
+
+def _model_sha256(model: Any) -> str:
+    """SHA-256 of the file ``model.save`` writes (a CBLM embeds its components' files)."""
+    return hashlib.sha256(_model_file(model)).hexdigest()
 
 
 def _weights_sha256(bc: Any) -> str:

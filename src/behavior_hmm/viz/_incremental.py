@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final
 
@@ -31,30 +31,37 @@ SCHEME_LABELS: Final[dict[str, str]] = {
 #: File name of the heat map in the output folder.
 FIGURE_NAME: Final[str] = "incremental_R.png"
 
+#: Heat maps label every cell with its score up to this many tasks.
+ANNOTATE_UP_TO: Final[int] = 10
 
-def plot_incremental(results: Mapping[str, Any]) -> Figure:
-    """Heat maps of ``R[k, i]`` (success %, task i after stage k), one panel per scheme.
 
-    Every cell is labelled with its success rate and goals reached; cells of tasks not
-    yet learned are blank. One colour scale (%) is shared by the panels.
+def plot_r_matrices(
+    panels: Sequence[tuple[str, Any, Any, Sequence[int]]],
+    tasks: Sequence[str],
+    title: str,
+    label: str = "success rate %",
+) -> Figure:
+    """Heat maps of ``R[k, i]`` (task i after stage k), one panel per scheme.
+
+    ``panels``: ``(title, R, goals, n)`` per scheme (``R`` and ``goals`` as in
+    results.json, ``None`` above the diagonal; ``n`` the test starts per task). Up to
+    :data:`ANNOTATE_UP_TO` tasks every cell is labelled with its score and goals reached;
+    cells of tasks not yet learned are blank. One colour scale (%) is shared.
     """
-    schemes = [s for s in SCHEMES if s in results["schemes"]]
-    tasks = list(results["sequence"])
     n = len(tasks)
-    mats = [matrix(results["schemes"][s]["R"]) for s in schemes]
+    mats = [matrix(r) for _, r, _, _ in panels]
     finite = np.concatenate([m[np.isfinite(m)] for m in mats])
     low = float(np.floor(min(finite.min(), 50.0) / 10.0) * 10.0)
-    side = max(3.2, 0.75 * n + 1.2)
-    fig = Figure(figsize=(side * len(schemes) + 1.0, side + 0.6), layout="constrained")
-    axes = fig.subplots(1, len(schemes), squeeze=False)[0]
+    side = min(max(3.2, 0.75 * n + 1.2), 7.0)
+    fig = Figure(figsize=(side * len(panels) + 1.0, side + 0.6), layout="constrained")
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
     image = None
-    for ax, scheme, m in zip(axes, schemes, mats, strict=True):
-        goals = results["schemes"][scheme]["goals"]
-        counts = results["schemes"][scheme]["n"]
+    small = 8 if n <= ANNOTATE_UP_TO else 6
+    for ax, (name, _, goals, counts), m in zip(axes, panels, mats, strict=True):
         image = ax.imshow(
             np.ma.masked_invalid(m), cmap="viridis", vmin=low, vmax=100.0, aspect="equal"
         )
-        for k in range(n):
+        for k in range(n if n <= ANNOTATE_UP_TO else 0):
             for i in range(k + 1):
                 value = m[k, i]
                 colour = "black" if value > low + 0.6 * (100.0 - low) else "white"
@@ -67,24 +74,35 @@ def plot_incremental(results: Mapping[str, Any]) -> Figure:
                     fontsize=7,
                     color=colour,
                 )
-        ax.set_xticks(range(n), tasks, rotation=35, ha="right", fontsize=8)
-        ax.set_yticks(range(n), [f"{k + 1}: {t}" for k, t in enumerate(tasks)], fontsize=8)
+        ax.set_xticks(range(n), tasks, rotation=35 if n <= ANNOTATE_UP_TO else 90, fontsize=small)
+        for tick in ax.get_xticklabels():
+            tick.set_horizontalalignment("right" if n <= ANNOTATE_UP_TO else "center")
+        ax.set_yticks(range(n), [f"{k + 1}: {t}" for k, t in enumerate(tasks)], fontsize=small)
         ax.set_xlabel("task i (scored on its test starts)")
         ax.set_ylabel("after stage k (task learned)")
-        metrics = results["schemes"][scheme]["metrics"]
-        ax.set_title(
-            f"{SCHEME_LABELS[scheme]}\nACC {metrics['acc']:.1f} %, BWT {metrics['bwt']:+.2f}",
-            fontsize=9,
-        )
+        ax.set_title(name, fontsize=9)
     if image is not None:
-        fig.colorbar(image, ax=list(axes), shrink=0.8, label="success rate %")
+        fig.colorbar(image, ax=list(axes), shrink=0.8, label=label)
+    fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def plot_incremental(results: Mapping[str, Any]) -> Figure:
+    """Heat maps of ``R[k, i]`` (success %, task i after stage k), one panel per scheme."""
+    schemes = [s for s in SCHEMES if s in results["schemes"]]
+    panels = []
+    for scheme in schemes:
+        entry = results["schemes"][scheme]
+        metrics = entry["metrics"]
+        name = f"{SCHEME_LABELS[scheme]}\nACC {metrics['acc']:.1f} %, BWT {metrics['bwt']:+.2f}"
+        panels.append((name, entry["R"], entry["goals"], entry["n"]))
     preset = results.get("preset", "default")
-    fig.suptitle(
+    return plot_r_matrices(
+        panels,
+        list(results["sequence"]),
         f"Incremental learning: R[k, i] ({results['sim']}, {preset} preset, seed "
         f"{results['seed']})",
-        fontsize=10,
     )
-    return fig
 
 
 def _fmt(value: float | None, spec: str = ".1f", sign: bool = False) -> str:
