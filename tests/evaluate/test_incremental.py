@@ -85,6 +85,31 @@ def test_sequences_are_checked_before_any_work() -> None:
         check_sequence(["grab"])
     with pytest.raises(ConfigError, match="at least one task"):
         check_sequence([])
+    # grasp runs on the gripper robot: the BC-strong network on distance and angle cannot
+    assert check_sequence([*DEFAULT_SEQUENCE, "grasp"])[-1] == "grasp"
+    with pytest.raises(ConfigError, match=r"grasp.*KheperaGripper.*--no-bc"):
+        check_sequence(["turn", "grasp"], bc=True)
+
+
+def test_grasp_joins_the_sequence_on_the_gripper_robot() -> None:
+    """A grasp stage (issue 29: "then grasp") is learned from gripper demonstrations and
+    scored on the gripper robot, beside a turn learned and scored on the kinematic one."""
+    grasp_starts = [
+        {"angle": a, "distance": d} for a in (-3.0, 0.0, 3.0) for d in (0.0, 0.005, 0.01)
+    ]
+    results = run_incremental_experiment(
+        sim="kinematic",
+        sequence=("turn", "grasp"),
+        bc=False,
+        starts={"turn": ANGLES[::2], "grasp": grasp_starts},
+        test_starts={"turn": TESTS["turn"], "grasp": [{"angle": 1.0, "distance": 0.0076}]},
+        sblm_params={"epochs": 15},
+    )
+    inc = results["schemes"]["incremental"]
+    assert inc["how"] == ["SBLM fit on its demonstrations"] * 2
+    assert inc["goals"][1][1] == 1  # the object is lifted: arm up, object held
+    assert inc["model_sha256"][0][0] == inc["model_sha256"][1][0]  # turn untouched
+    assert results["schemes"]["full_refit"]["how"][-1] == "refit 2 SBLM(s)"
 
 
 # A tiny grid: a few seconds of demonstrations per task, one or two test starts each.

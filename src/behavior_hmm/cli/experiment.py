@@ -548,7 +548,8 @@ def experiment_incremental(
         typer.Option(
             "--task",
             help="The sequence, in learning order (repeat; default turn, approach, "
-            "turn-approach, retreat, position)",
+            "turn-approach, retreat, position; grasp may follow, on the gripper robot, "
+            "with --no-bc)",
         ),
     ] = None,
     bc: Annotated[
@@ -605,7 +606,7 @@ def experiment_incremental(
     check_seed(seed)
     check_outputs({"--config": config}, {}, folders={"-o": out})
     name, params = model_params(("SBLM", "CBLM"), preset, config, set_)
-    sequence = check_sequence(task or DEFAULT_SEQUENCE)
+    sequence = check_sequence(task or DEFAULT_SEQUENCE, bc=bc)
     results = with_progress(
         f"experiment incremental ({sim}, {name} preset)",
         run_incremental_experiment,

@@ -1,7 +1,8 @@
 """Incremental learning measured as continual learning measures it (thesis 7.1, issue 29).
 
 A *sequence* of tasks (default :data:`DEFAULT_SEQUENCE`: turn → approach → turn &
-approach → retreat → position; grasp can be appended once it exists) is learned one
+approach → retreat → position; ``grasp`` can be appended: it is collected and scored on
+the gripper robot it needs, in MuJoCo, whatever ``sim`` the others use) is learned one
 *stage* at a time: stage ``k`` learns task ``k`` from that task's demonstrations only.
 After every stage each task learned so far is scored on its fixed shipped test starts
 (:func:`behavior_hmm.teach.test_starts`) with the project's success rate
@@ -94,12 +95,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.evaluate._grasp import STAGES as GRASP_STAGES
 
 Progress = Callable[[int, int], None]
 FloatArray = NDArray[np.float64]
 Start = dict[str, float]
 
-#: Our robot's behaviors in the order issue 29 learns them (grasp to be appended).
+#: Our robot's behaviors in the order issue 29 learns them (then grasp, with ``--task``).
 DEFAULT_SEQUENCE: Final[tuple[str, ...]] = (
     "turn",
     "approach",
@@ -113,6 +115,7 @@ SIMPLE_INPUTS: Final[dict[str, tuple[str, ...]]] = {
     "turn": ("angle",),
     "approach": ("distance", "angle"),
     "retreat": ("distance", "angle"),
+    "grasp": dict(GRASP_STAGES)["grasp"],  # on the gripper robot, as experiment grasp
 }
 
 #: Inputs of the CBLMs' own observation categories (as ``experiment complex``).
@@ -230,13 +233,17 @@ def task_kind(task: str) -> str:
 
 
 def check_sequence(
-    sequence: Sequence[str], inputs: Mapping[str, Sequence[str]] | None = None
+    sequence: Sequence[str],
+    inputs: Mapping[str, Sequence[str]] | None = None,
+    bc: bool = False,
 ) -> tuple[str, ...]:
     """Refuse a sequence that cannot be learned in order (ConfigError), before any work.
 
     Tasks must be registered behaviors, each once; a complex task's components must be
     learned at earlier stages; a simple task needs its SBLM's inputs (``inputs`` or
-    :data:`SIMPLE_INPUTS`).
+    :data:`SIMPLE_INPUTS`). With ``bc``, every task must run on our Khepera: the one
+    fine-tuned BC-strong network reads :data:`BC_INPUTS`, which a task on another robot
+    (grasp, on the gripper robot) does not act on.
     """
     from behavior_hmm.teach import behavior_spec
 
@@ -257,6 +264,11 @@ def check_sequence(
             )
         if not spec.components and task not in table:
             raise ConfigError(f"no SBLM inputs for simple task '{task}'; give inputs={{...}}")
+        if bc and spec.env is not None:
+            raise ConfigError(
+                f"task '{task}' runs on {spec.env}, and the fine-tuned BC-strong network reads "
+                f"only {', '.join(BC_INPUTS)}: leave BC out (--no-bc)"
+            )
         seen.append(task)
     return tasks
 
@@ -317,7 +329,7 @@ def run_incremental_experiment(
     """
     from behavior_hmm.teach import collect
 
-    tasks = check_sequence(sequence, inputs)
+    tasks = check_sequence(sequence, inputs, bc)
     table = {**SIMPLE_INPUTS, **{k: tuple(v) for k, v in dict(inputs or {}).items()}}
     kinds = {t: task_kind(t) for t in tasks}
     n = len(tasks)
@@ -462,7 +474,7 @@ class _Context:
             self.reused += 1
         else:
             result = evaluate_model(
-                _as_task(model, task), self.tests[task], sim=self.sim, seed=self.seed
+                _as_task(model, task), self.tests[task], seed=self.seed, **self._robot(task)
             )
             self.evaluations += 1
             outcome = (float(result["success_rate_mean"]), int(result["goal_reached"]))
@@ -472,6 +484,17 @@ class _Context:
             self.scores[key] = outcome
         self.tick()
         return self.scores[key]
+
+    def _robot(self, task: str) -> dict[str, Any]:
+        """Where ``task`` runs: the sequence's simulator, or the robot its behavior needs
+        (grasp: the gripper robot, which also runs the teacher's references)."""
+        from behavior_hmm.runtime import make_robot_env
+        from behavior_hmm.teach import behavior_spec
+
+        spec = behavior_spec(task)
+        if spec.env is None:
+            return {"sim": self.sim}
+        return {"sim": None, "env": make_robot_env(spec.env)}
 
 
 def _as_task(model: Any, task: str) -> Any:
