@@ -473,6 +473,17 @@ def experiment_generators(
     log.info("figures: %s", ", ".join(figures.values()))
 
 
+def _lasa_sblm(
+    preset: str | None, config: Path | None, set_: list[str] | None
+) -> tuple[str, dict[str, object]]:
+    """The LASA experiments' SBLM: the preset's name and its changes to the default preset."""
+    from behavior_hmm.models import preset_params
+
+    name, params = model_params(("SBLM",), preset, config, set_)
+    defaults = preset_params("default", "SBLM")
+    return name, {k: v for k, v in params["SBLM"].items() if defaults.get(k) != v}
+
+
 @app.command("lasa")
 @user_errors
 def experiment_lasa(
@@ -508,16 +519,13 @@ def experiment_lasa(
         run_lasa_experiment,
         write_lasa_report,
     )
-    from behavior_hmm.models import preset_params
 
     check_lasa_extra()
     check_seed(seed)
     shapes = check_shapes(shape)
     check_grid(grid)
     check_outputs({"--config": config}, {}, folders={"-o": out})
-    name, params = model_params(("SBLM",), preset, config, set_)
-    defaults = preset_params("default", "SBLM")  # the experiment's SBLM: these, changed
-    changed = {k: v for k, v in params["SBLM"].items() if defaults.get(k) != v}
+    name, changed = _lasa_sblm(preset, config, set_)
     runner = make_run_executor("local", workers, None)
     results = with_progress(
         f"experiment lasa ({len(shapes)} shapes, {name} preset)",
@@ -559,8 +567,8 @@ def experiment_incremental(
         bool,
         typer.Option(
             "--lasa",
-            help="Learn LASA handwriting shapes one after another instead (needs the lasa "
-            "extra; --sim and --task do not apply)",
+            help="Learn LASA handwriting shapes one after another instead, on the point mass "
+            "(needs the lasa extra; --sim is not used, --task is refused)",
         ),
     ] = False,
     shape: Annotated[
@@ -638,16 +646,13 @@ def _incremental_lasa(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._lasa import check_lasa_extra
     from behavior_hmm.evaluate._lasa_sequence import check_sequence_shapes, run_lasa_sequence
-    from behavior_hmm.models import preset_params
     from behavior_hmm.viz._lasa_sequence import write_lasa_sequence_report
 
     check_lasa_extra()
     check_seed(seed)
     names = check_sequence_shapes(shapes)
     check_outputs({"--config": config}, {}, folders={"-o": out})
-    name, params = model_params(("SBLM",), preset, config, set_)
-    defaults = preset_params("default", "SBLM")  # the SBLMs: these, changed
-    changed = {k: v for k, v in params["SBLM"].items() if defaults.get(k) != v}
+    name, changed = _lasa_sblm(preset, config, set_)
     results = with_progress(
         f"experiment incremental --lasa ({len(names)} shapes, {name} preset)",
         run_lasa_sequence,

@@ -473,9 +473,14 @@ class _Context:
         if key is not None and key in self.scores:
             self.reused += 1
         else:
-            result = evaluate_model(
-                _as_task(model, task), self.tests[task], seed=self.seed, **self._robot(task)
-            )
+            robot = self._robot(task)
+            try:
+                result = evaluate_model(
+                    _as_task(model, task), self.tests[task], seed=self.seed, **robot
+                )
+            finally:
+                if "env" in robot:
+                    robot["env"].close()
             self.evaluations += 1
             outcome = (float(result["success_rate_mean"]), int(result["goal_reached"]))
             if key is None:

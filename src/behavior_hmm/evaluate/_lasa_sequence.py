@@ -71,12 +71,14 @@ from behavior_hmm.evaluate._incremental import (
     transfer_metrics,
 )
 from behavior_hmm.evaluate._lasa import (
+    DMP_WEIGHTS,
     GOAL,
     LASA_REACH,
     LASA_TOLERANCE,
     MAX_STEPS_FACTOR,
     PROTOCOLS,
     SINGLE_SHAPES,
+    _fit,
     _runner,
     case_metrics,
     check_lasa_extra,
@@ -220,11 +222,14 @@ class _Learner:
         raise NotImplementedError
 
 
-def _sblm(shape: _Shape, behavior: str, seed: int, params: Mapping[str, Any]) -> Any:
-    from behavior_hmm.models import SBLM
-
-    settings = {**dict(params), "inputs": ("x", "y"), "random_state": seed}
-    return SBLM.from_preset("default", **settings).fit(lasa_dataset(shape.train, behavior))
+def _sblm(
+    episodes: Sequence[Mapping[str, FloatArray]],
+    behavior: str,
+    seed: int,
+    params: Mapping[str, Any],
+) -> Any:
+    """An SBLM on ``episodes`` as ``experiment lasa`` fits it (inputs x, y)."""
+    return _fit("SBLM", episodes, behavior, seed, params, DMP_WEIGHTS, LASA_TOLERANCE)
 
 
 class _Library(_Learner):
@@ -238,7 +243,7 @@ class _Library(_Learner):
 
     def learn(self, k: int) -> None:
         shape = self.shapes[k]
-        self.models.append(_sblm(shape, shape.name, self.seed, self.params))
+        self.models.append(_sblm(shape.train, shape.name, self.seed, self.params))
         file = _model_file(self.models[k])
         self.digests.append(hashlib.sha256(file).hexdigest())
         self.bytes.append(len(file))
@@ -257,28 +262,41 @@ class _Grown(_Learner):
     def __init__(self, shapes: Sequence[_Shape], seed: int, params: Mapping[str, Any]) -> None:
         super().__init__(shapes, seed, params)
         self.sblm: Any = None
-        self._digest: str | None = None
+        self._file: bytes | None = None
 
     def learn(self, k: int) -> None:
         shape = self.shapes[k]
         if self.sblm is None:
-            self.sblm = _sblm(shape, GROWN_BEHAVIOR, self.seed, self.params)
+            self.sblm = _sblm(shape.train, GROWN_BEHAVIOR, self.seed, self.params)
             self.how.append("SBLM fit on its demonstrations")
         else:
             self.sblm.partial_fit(lasa_dataset(shape.train, GROWN_BEHAVIOR))
             self.how.append("partial_fit on its demonstrations")
-        self._digest = None
+        self._file = None
 
     def model(self, i: int) -> Any:
         return self.sblm
 
+    def _saved(self) -> bytes:
+        if self._file is None:  # one model for every shape: saved once per stage
+            self._file = _model_file(self.sblm)
+        return self._file
+
     def digest(self, i: int) -> str:
-        if self._digest is None:  # one model for every shape: hashed once per stage
-            self._digest = _model_sha256(self.sblm)
-        return self._digest
+        return hashlib.sha256(self._saved()).hexdigest()
 
     def size(self) -> int:
-        return len(_model_file(self.sblm))
+        return len(self._saved())
+
+    def clipped(self) -> list[float]:
+        """Per shape, the share of its training commands beyond the grown model's
+        command scale (the first shape's), which ``partial_fit`` clips."""
+        scale = float(self.sblm.command_scale_)
+        names = command_columns()
+        return [
+            float(np.mean(np.abs(np.concatenate([e[c] for e in s.train for c in names])) > scale))
+            for s in self.shapes
+        ]
 
 
 class _FineTunedBC(_Learner):
@@ -356,9 +374,11 @@ def run_lasa_sequence(
         above the diagonal), ``goals`` (reached), ``dtw`` (mean, LASA units), ``n``,
         ``floor`` (per shape, %), ``how``, ``model_sha256`` (per cell), ``model_bytes``
         (after each stage), ``reference`` (FWT's ``b_i``, or ``None``), ``metrics``
-        (:func:`transfer_metrics` plus ``rem``) and ``kept_goals`` (per earlier shape:
-        goals reached at the end minus when learned); ``incremental`` also
-        ``refit_identical``; ``grown`` also ``joint`` (per shape: score, reached, dtw);
+        (:func:`transfer_metrics` plus ``rem``) and ``lost_starts`` (per earlier shape:
+        its test starts that reached the goal when it was learned and do not at the end);
+        ``incremental`` also ``refit_identical``; ``grown`` also ``joint`` (per shape:
+        score, reached, dtw), ``command_scale`` (LASA units/s) and ``clipped_share`` (per
+        shape, the share of its training commands beyond that scale);
         ``timings`` (wall seconds of training per scheme per stage, ``refit_s``,
         ``joint_s``, ``evaluation_s``).
     """
@@ -385,6 +405,9 @@ def run_lasa_sequence(
             progress(done, total)
 
     r = {s: np.full((n, n), np.nan) for s in learners}
+    # which test starts reached the goal: when each shape was learned, and at the end
+    reached_then: dict[str, list[list[bool]]] = {s: [] for s in learners}
+    reached_end: dict[str, list[list[bool]]] = {s: [] for s in learners}
     goals = {s: np.full((n, n), -1, dtype=np.int64) for s in learners}
     dtw = {s: np.full((n, n), np.nan) for s in learners}
     hashes: dict[str, list[list[str | None]]] = {
@@ -417,6 +440,11 @@ def run_lasa_sequence(
                     dtw[scheme][k, i] = cell["dtw"]
                     hashes[scheme][k][i] = digest
                     floors[i] = cell["floor"]
+                    flags = [bool(c["reached"]) for c in cell["cases"]]
+                    if i == k:
+                        reached_then[scheme].append(flags)
+                    if k == n - 1:
+                        reached_end[scheme].append(flags)
                     tick()
                 evaluation_s += time.perf_counter() - t0
         timings: dict[str, Any] = {f"{s}_s": seconds[s] for s in learners}
@@ -425,19 +453,19 @@ def run_lasa_sequence(
         t0 = time.perf_counter()
         refit_identical = []
         for i, shape in enumerate(items):
-            again = _sblm(shape, shape.name, seed, params)
+            again = _sblm(shape.train, shape.name, seed, params)
             refit_identical.append(_model_sha256(again) == library.digests[i])
             tick()
         timings["refit_s"] = time.perf_counter() - t0
         joint: list[dict[str, Any]] | None = None
         if grown:
             t0 = time.perf_counter()
-            everything = _Grown(items, seed, params)
-            everything.sblm = _joint_sblm(items, seed, params)
+            episodes = [e for shape in items for e in shape.train]
+            together = _sblm(episodes, GROWN_BEHAVIOR, seed, params)
             timings["joint_s"] = time.perf_counter() - t0
             joint = []
             for shape in items:
-                cell = score_shape("SBLM", everything.sblm, shape, env)
+                cell = score_shape("SBLM", together, shape, env)
                 joint.append({k: cell[k] for k in ("score", "reached", "n", "dtw")})
             tick()
     timings["evaluation_s"] = evaluation_s
@@ -447,7 +475,10 @@ def run_lasa_sequence(
         reference = None if scheme == "bc_strong_finetuned" else alone
         metrics = transfer_metrics(r[scheme], reference)
         metrics["rem"] = remembering(metrics["bwt"])
-        diag = np.diag(goals[scheme])
+        lost = [
+            sum(then and not end for then, end in zip(a, b, strict=True))
+            for a, b in zip(reached_then[scheme][:-1], reached_end[scheme][:-1], strict=True)
+        ]
         schemes[scheme] = {
             "R": _jsonable(r[scheme]),
             "goals": _jsonable(goals[scheme]),
@@ -458,11 +489,15 @@ def run_lasa_sequence(
             "model_bytes": sizes[scheme],
             "reference": reference,
             "metrics": metrics,
-            "kept_goals": [int(goals[scheme][-1, i] - diag[i]) for i in range(n - 1)],
+            "lost_starts": lost,
         }
     schemes["incremental"]["refit_identical"] = refit_identical
     if joint is not None:
         schemes["grown"]["joint"] = joint
+        grown_learner = learners["grown"]
+        assert isinstance(grown_learner, _Grown)
+        schemes["grown"]["command_scale"] = float(grown_learner.sblm.command_scale_)
+        schemes["grown"]["clipped_share"] = grown_learner.clipped()
     if progress is not None:
         progress(total, total)
     return {
@@ -485,15 +520,6 @@ def run_lasa_sequence(
     }
 
 
-def _joint_sblm(items: Sequence[_Shape], seed: int, params: Mapping[str, Any]) -> Any:
-    """One SBLM fitted on every shape's training demonstrations together."""
-    from behavior_hmm.models import SBLM
-
-    episodes = [e for shape in items for e in shape.train]
-    settings = {**dict(params), "inputs": ("x", "y"), "random_state": seed}
-    return SBLM.from_preset("default", **settings).fit(lasa_dataset(episodes, GROWN_BEHAVIOR))
-
-
 #: Issue 29's targets on the LASA sequence: BWT at least this (points), and every
 #: earlier shape reaching its goal at the end from every test start it reached when
 #: learned.
@@ -506,14 +532,15 @@ def check_lasa_targets(results: Mapping[str, Any]) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``bwt`` (points) and ``bwt_met``; ``lost`` (earlier shapes that reach fewer
-        goals at the end than when learned) and ``kept_met``; ``never_reached`` (shapes
+        ``bwt`` (points) and ``bwt_met``; ``lost`` (earlier shapes with a test start that
+        reached the goal when the shape was learned and does not at the end) and
+        ``kept_met``; ``never_reached`` (shapes
         whose test starts did not all reach the goal when learned: the method's misses,
         issue 26, not forgetting).
     """
     inc = results["schemes"]["incremental"]
     names = list(results["sequence"])
-    lost = [names[i] for i, d in enumerate(inc["kept_goals"]) if d < 0]
+    lost = [names[i] for i, d in enumerate(inc["lost_starts"]) if d > 0]
     missed = [
         names[i]
         for i in range(len(names))

@@ -69,7 +69,7 @@ def lasa_sequence_markdown(results: Mapping[str, Any]) -> str:
         "",
         "| scheme | ACC % | BWT (points) | forgetting (points) | REM | FWT (points) "
         "| worst drop (points) | goals at the end | median DTW at the end | train s, total "
-        "| kept at the end |",
+        "| model size at the end |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for scheme in schemes:
@@ -80,11 +80,12 @@ def lasa_sequence_markdown(results: Mapping[str, Any]) -> str:
         seconds = timings.get(f"{scheme}_s")
         total = f"{float(np.sum(seconds)):.1f}" if seconds else "—"
         kept = entry["model_bytes"][-1] / 1e6
+        unit = " of weights" if scheme == "bc_strong_finetuned" else " of model files"
         dtw = float(np.median([float(v) for v in entry["dtw"][last]]))
         lines.append(
             f"| {LASA_SCHEME_LABELS[scheme]} | {m['acc']:.1f} | {m['bwt']:+.2f} "
             f"| {m['forgetting']:.2f} | {m['rem']:.3f} | {fwt} | {m['worst_drop']:+.2f} "
-            f"| {reached}/{sum(entry['n'])} | {dtw:.0f} | {total} | {kept:.2f} MB |"
+            f"| {reached}/{sum(entry['n'])} | {dtw:.0f} | {total} | {kept:.2f} MB{unit} |"
         )
     lines.append("")
     header = "| shape | floor % | learned (incremental) | end: " + " | end: ".join(
@@ -122,6 +123,20 @@ def lasa_sequence_markdown(results: Mapping[str, Any]) -> str:
         f"Each shape's SBLM fitted again at the end equals the one learned at its stage "
         f"byte for byte: {sum(identical)} of {len(identical)}.",
     ]
+    grown = results["schemes"].get("grown", {})
+    if "clipped_share" in grown:
+        clipped = [
+            f"{name} {share:.1%}"
+            for name, share in zip(names, grown["clipped_share"], strict=True)
+            if share > 0
+        ]
+        lines += [
+            "",
+            f"The grown SBLM's command scale is its first shape's, {grown['command_scale']:.1f} "
+            "units/s; training commands beyond it, which partial_fit clips: "
+            + (", ".join(clipped) or "none")
+            + ".",
+        ]
     return "\n".join(lines) + "\n"
 
 
