@@ -87,18 +87,27 @@ def plot_r_matrices(
     return fig
 
 
+def scheme_panels(
+    results: Mapping[str, Any], labels: Mapping[str, str]
+) -> list[tuple[str, Any, Any, Sequence[int]]]:
+    """:func:`plot_r_matrices`' panels: each scheme of ``labels`` (in their order) that
+    ``results`` holds, titled with its label, ACC and BWT."""
+    panels = []
+    for scheme, label in labels.items():
+        entry = results["schemes"].get(scheme)
+        if entry is None:
+            continue
+        m = entry["metrics"]
+        name = f"{label}\nACC {m['acc']:.1f} %, BWT {m['bwt']:+.2f}"
+        panels.append((name, entry["R"], entry["goals"], entry["n"]))
+    return panels
+
+
 def plot_incremental(results: Mapping[str, Any]) -> Figure:
     """Heat maps of ``R[k, i]`` (success %, task i after stage k), one panel per scheme."""
-    schemes = [s for s in SCHEMES if s in results["schemes"]]
-    panels = []
-    for scheme in schemes:
-        entry = results["schemes"][scheme]
-        metrics = entry["metrics"]
-        name = f"{SCHEME_LABELS[scheme]}\nACC {metrics['acc']:.1f} %, BWT {metrics['bwt']:+.2f}"
-        panels.append((name, entry["R"], entry["goals"], entry["n"]))
     preset = results.get("preset", "default")
     return plot_r_matrices(
-        panels,
+        scheme_panels(results, {s: SCHEME_LABELS[s] for s in SCHEMES}),
         list(results["sequence"]),
         f"Incremental learning: R[k, i] ({results['sim']}, {preset} preset, seed "
         f"{results['seed']})",

@@ -15,7 +15,7 @@ from behavior_hmm.evaluate._lasa_sequence import (
     TARGET_LASA_BWT,
     check_lasa_targets,
 )
-from behavior_hmm.viz._incremental import plot_r_matrices
+from behavior_hmm.viz._incremental import plot_r_matrices, scheme_panels
 from behavior_hmm.viz._reports import write_results_files
 from behavior_hmm.viz._traces import _save
 
@@ -32,15 +32,9 @@ LASA_FIGURE_NAME: Final[str] = "incremental_lasa_R.png"
 
 def plot_lasa_sequence(results: Mapping[str, Any]) -> Figure:
     """Heat maps of ``R[k, i]`` (score %, shape i after stage k), one panel per scheme."""
-    panels = []
-    for scheme in (s for s in LASA_SCHEMES if s in results["schemes"]):
-        entry = results["schemes"][scheme]
-        m = entry["metrics"]
-        name = f"{LASA_SCHEME_LABELS[scheme]}\nACC {m['acc']:.1f} %, BWT {m['bwt']:+.2f}"
-        panels.append((name, entry["R"], entry["goals"], entry["n"]))
     settings = results["settings"]
     return plot_r_matrices(
-        panels,
+        scheme_panels(results, {s: LASA_SCHEME_LABELS[s] for s in LASA_SCHEMES}),
         list(results["sequence"]),
         f"LASA shapes learned one after another: R[k, i] (SBLM: {settings['sblm_preset']} "
         f"preset, seed {settings['seed']})",
