@@ -134,6 +134,21 @@ def test_sweep_structure_table_and_figures(tmp_path: Path) -> None:
     assert json.loads((tmp_path / "results.json").read_text())["sim"] == "kinematic"
 
 
+def test_a_sweep_with_an_option_runs_its_row_and_says_so() -> None:
+    results = run_faults(
+        sim="kinematic",
+        tasks=["turn"],
+        faults=["wheel_mismatch"],
+        levels={"wheel_mismatch": [0.4]},
+        n_starts=3,
+        options=("wheel_calibration",),
+    )
+    assert results["preset"] == "default + wheel_calibration"
+    assert "default + wheel_calibration preset" in faults_markdown(results)
+    (cell,) = results["tasks"][0]["cells"]
+    assert cell["goal_reached"] == 3
+
+
 def test_every_fault_kind_has_levels() -> None:
     names = [k.name for k in FAULTS]
     assert names == [
@@ -150,7 +165,11 @@ def test_every_fault_kind_has_levels() -> None:
 
 @pytest.mark.parametrize(
     ("args", "needle"),
-    [(["--task", "spin"], "spin"), (["--fault", "gremlins"], "gremlins")],
+    [
+        (["--task", "spin"], "spin"),
+        (["--fault", "gremlins"], "gremlins"),
+        (["--option", "calibrate"], "calibrate"),
+    ],
 )
 def test_command_refuses_unknown_task_or_fault(
     args: list[str], needle: str, tmp_path: Path

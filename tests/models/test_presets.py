@@ -134,7 +134,13 @@ def test_every_option_is_off_in_both_presets_and_names_real_parameters() -> None
     from behavior_hmm.models import OPTIONS
     from behavior_hmm.models._presets import check_row_name, option
 
-    assert [o.name for o in OPTIONS] == ["elman", "shared_init", "recover", "auto_inputs"]
+    assert [o.name for o in OPTIONS] == [
+        "elman",
+        "shared_init",
+        "recover",
+        "auto_inputs",
+        "wheel_calibration",
+    ]
     for item in OPTIONS:
         assert option(item.name) is item and check_row_name(item.name) == item.name
         assert not {item.name} & {d.name for d in DEPARTURES}

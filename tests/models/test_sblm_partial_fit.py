@@ -14,6 +14,7 @@ from behavior_hmm.errors import ConfigError, NotFittedError
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import count_emissions
 from behavior_hmm.models import SBLM
+from behavior_hmm.models._sblm import demonstrated_wheel_response
 from behavior_hmm.teach import collect
 
 #: Starts between those of ``turn_data`` (every 20 deg from -170), farther and closer.
@@ -176,6 +177,12 @@ def test_data_dependent_state_is_that_of_all_the_demonstrations(
     assert after.command_scale_ == before.command_scale_
     assert after.delta_scale_ == before.delta_scale_
     assert after.command_rates_.tobytes() == before.command_rates_.tobytes()
+    # how the wheels answered: the sums over all the demonstrations
+    np.testing.assert_allclose(
+        after.wheel_response_,
+        before.wheel_response_ + demonstrated_wheel_response(new_data),
+        rtol=1e-12,
+    )
     assert after.provenance_ == before.provenance_
     record = after.updates_[-1]
     assert record["episodes"] == len(new_data) and record["rows"] == new_data.n_samples

@@ -314,6 +314,13 @@ def experiment_faults(
             "speed_limit, push_bearing, push_distance, dropout"
         ),
     ] = None,
+    option: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Switch on this option over the default preset (repeatable), e.g. "
+            "wheel_calibration (the options of experiment ablation)"
+        ),
+    ] = None,
     workers: WorkersOption = None,
     executor: ExecutorOption = "local",
     address: AddressOption = None,
@@ -331,6 +338,7 @@ def experiment_faults(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._ablation import task as ablation_task
     from behavior_hmm.evaluate._faults import fault_kind, run_faults
+    from behavior_hmm.models._presets import option as check_option
     from behavior_hmm.viz._faults import write_faults_report
 
     check_sim(sim)
@@ -339,6 +347,8 @@ def experiment_faults(
         ablation_task(name)  # refuse bad names before any work
     for name in fault or []:
         fault_kind(name)
+    for name in option or []:
+        check_option(name)
     check_outputs({}, {}, folders={"-o": out})
     runner = make_run_executor(executor, workers, address)
     results = with_progress(
@@ -349,6 +359,7 @@ def experiment_faults(
         seed=seed,
         tasks=task or None,
         faults=fault or None,
+        options=tuple(option or ()),
     )
     _write_report(
         lambda: write_faults_report(results, out),

@@ -43,6 +43,7 @@ from behavior_hmm.evaluate._ablation import task as ablation_task
 from behavior_hmm.evaluate._executor import Executor, SerialExecutor
 from behavior_hmm.evaluate._experiments import _collect_task
 from behavior_hmm.evaluate._protocol import evaluate_model
+from behavior_hmm.models._presets import option
 
 Progress = Callable[[int, int], None]
 Level = float | str
@@ -328,6 +329,7 @@ def run_faults(
     faults: Sequence[str] | None = None,
     levels: Mapping[str, Sequence[Level]] | None = None,
     n_starts: int | None = None,
+    options: Sequence[str] = (),
     progress: Progress | None = None,
     executor: Executor | None = None,
 ) -> dict[str, Any]:
@@ -351,6 +353,10 @@ def run_faults(
         Other levels for some fault kinds (default: each kind's levels).
     n_starts
         Evaluate from only the first ``n_starts`` test starts (default: all 15).
+    options
+        Options (:data:`~behavior_hmm.models._presets.OPTIONS`) switched on over the
+        default preset, e.g. ``("wheel_calibration",)``; the results' ``preset`` is the
+        row's label (``default + wheel_calibration``).
     progress
         Called with (tasks done, tasks in all): collections, fits and cells.
     executor
@@ -372,7 +378,7 @@ def run_faults(
     plan = [(k, own.get(k.name, k.levels)) for k in kinds]
     if n_starts is not None and n_starts < 1:
         raise ConfigError(f"n_starts must be >= 1, got {n_starts}")
-    row = AblationRow("default")
+    row = AblationRow("default", options=tuple(option(name).name for name in options))
     # the simple tasks whose SBLMs are fitted: each task's own, or a complex task's
     # components (shared with a simple task of the same name), each once
     parts: dict[str, AblationTask] = {}
@@ -445,7 +451,7 @@ def run_faults(
     return {
         "sim": sim,
         "seed": seed,
-        "preset": "default",
+        "preset": row.label,
         "fault_hold_s": _hold_s(),
         "push": {"angle_deg": PUSH_ANGLE_DEG, "distance_m": PUSH_DISTANCE_M},
         "dropout_at": DROPOUT_AT,

@@ -144,6 +144,7 @@ class LearnedBehavior(Estimator):
     path_self_loops: str
     command_rate_limit: float
     progress_limit: float
+    wheel_calibration: bool
 
     def check_params(self) -> None:
         """Refuse parameters out of range (ConfigError) before any data is read."""
@@ -161,6 +162,10 @@ class LearnedBehavior(Estimator):
             number = isinstance(value, int | float) and not isinstance(value, bool)
             if not number or not low <= float(value) <= high:
                 raise ConfigError(f"{name} must be a number in [{low:g}, {high:g}], got {value!r}")
+        if not isinstance(self.wheel_calibration, bool):
+            raise ConfigError(
+                f"wheel_calibration must be true or false, got {self.wheel_calibration!r}"
+            )
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Self:

@@ -39,6 +39,7 @@ from behavior_hmm.models._sblm import (
     _jsonable_params,
     _package_version,
     _prefixed,
+    added_wheel_response,
     continued_cobart,
     nominal_episodes,
 )
@@ -108,6 +109,10 @@ class CBLM(LearnedBehavior):
         of ``max_steps_`` lowers its goal error by 10 % (``runtime.Progress``): a robot
         slower than its demonstrations (a lower speed limit, a lagging motor) is not
         stopped short while it is getting there (thesis: 1, a fixed limit).
+    wheel_calibration
+        If true, the control loop corrects the wheels' gain difference while the complex
+        behavior runs, across its components, as :class:`SBLM`'s ``wheel_calibration``
+        does (:class:`~behavior_hmm.runtime.WheelCalibration`). Off in both presets.
     settle_cycles
         When the goal's tolerance is entered while the running component still heads
         for a goal inside it, that component may finish (its own stop rule: at rest,
@@ -199,6 +204,7 @@ class CBLM(LearnedBehavior):
         handover_pause: bool = True,
         reach_check: bool = True,
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
+        wheel_calibration: bool = False,
         parallel: bool = True,
         random_state: int = 0,
     ) -> None:
@@ -220,6 +226,7 @@ class CBLM(LearnedBehavior):
         self.handover_pause = handover_pause
         self.reach_check = reach_check
         self.progress_limit = progress_limit
+        self.wheel_calibration = wheel_calibration
         self.parallel = parallel
         self.random_state = random_state
 
@@ -373,6 +380,16 @@ class CBLM(LearnedBehavior):
             for c, v in (dataset.metadata.get("goal") or {}).items()
             if c in inputs and self.channel_spec(str(c)).tolerance is not None
         }
+
+    @property
+    def wheel_response_(self) -> np.ndarray | None:
+        """How the demonstrated robot's wheels answered: its components' sums added up
+        (each component's ``wheel_response_``; None where none has them). The reference
+        ``wheel_calibration`` restores; a component that joins adds its own."""
+        total = None
+        for component in self.components_:
+            total = added_wheel_response(total, getattr(component, "wheel_response_", None))
+        return total
 
     # ----------------------------------------------------------- add_component
     def add_component(

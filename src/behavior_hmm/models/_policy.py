@@ -696,4 +696,6 @@ def perform(
         pushes=pushes,
         fault_hold_s=fault_hold_s,
         progress_limit=float(getattr(model, "progress_limit", 1.0)),
+        wheel_calibration=bool(getattr(model, "wheel_calibration", False)),
+        wheel_response=getattr(model, "wheel_response_", None),
     )

@@ -264,6 +264,12 @@ OPTIONS: Final[tuple[Option, ...]] = (
         "each simple behavior's input channels chosen from its demonstrations "
         "(select_inputs; thesis 7.2's feature selection); a CBLM keeps its task's inputs",
     ),
+    Option(
+        "wheel_calibration",
+        {"SBLM": {"wheel_calibration": True}, "CBLM": {"wheel_calibration": True}},
+        "each wheel's gain estimated on line from the measured speed and yaw rate, and "
+        "the commands divided by it",
+    ),
 )
 
 

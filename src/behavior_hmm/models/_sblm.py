@@ -46,6 +46,7 @@ from behavior_hmm.models._base import (
     dataset_hash,
 )
 from behavior_hmm.models._goals import AUTO_INPUTS, check_goal, check_input_names
+from behavior_hmm.runtime._calibration import wheel_response
 
 FloatArray = NDArray[np.float64]
 
@@ -194,6 +195,15 @@ class SBLM(LearnedBehavior):
         of ``max_steps_`` lowers its goal error by 10 % (``runtime.Progress``): a robot
         slower than its demonstrations (a lower speed limit, a lagging motor) is not
         stopped short while it is getting there (thesis: 1, a fixed limit).
+    wheel_calibration
+        If true, each run estimates each wheel's gain from the robot's measured body
+        speed and yaw rate and divides the commands by them
+        (:class:`~behavior_hmm.runtime.WheelCalibration`; the wheels' difference only):
+        a robot whose wheels answer differently from the demonstrated one's (a motor
+        gain mismatch) drives as the behavior asks. Needs a robot that measures
+        ``linear_velocity`` and ``angular_velocity`` and declares its wheel geometry;
+        elsewhere it is off, with a warning. Off in both presets (an option,
+        docs/reliability.md).
     recover
         If true, a run whose filtered readings leave the demonstrations (farther from
         every observation category's prototype than twice ``reach_radius_``, the
@@ -242,6 +252,12 @@ class SBLM(LearnedBehavior):
         Change of each filtered input per control cycle (its unit) per unit of each
         command (rad/s of the left and the right wheel), fitted on the demonstrations
         (goal braking).
+    wheel_response_ : ndarray of shape (2, 3) or None
+        How the demonstrated robot's wheels answered their commands
+        (:func:`behavior_hmm.runtime.wheel_response` sums over the demonstrations), the
+        reference ``wheel_calibration`` restores; None where the demonstrations have no
+        left/right wheel commands or no measured ``linear_velocity`` and
+        ``angular_velocity``.
     command_specs_ : tuple of ChannelSpec
         The command channels the generators output, in action order (the dataset's).
     command_scales_ : ndarray of shape (n_commands,)
@@ -292,6 +308,7 @@ class SBLM(LearnedBehavior):
         goal_braking: bool = True,
         learn_corrections: bool = True,
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
+        wheel_calibration: bool = False,
         recover: bool = False,
         counting: str = "changes",
         smoothing: float = 0.0,
@@ -323,6 +340,7 @@ class SBLM(LearnedBehavior):
         self.goal_braking = goal_braking
         self.learn_corrections = learn_corrections
         self.progress_limit = progress_limit
+        self.wheel_calibration = wheel_calibration
         self.recover = recover
         self.counting = counting
         self.smoothing = smoothing
@@ -537,6 +555,7 @@ class SBLM(LearnedBehavior):
             [self.channel_spec(c) for c in inputs],
             wheels=self.command_channels == COMMAND_CHANNELS,
         )
+        self.wheel_response_ = demonstrated_wheel_response(dataset)
         self.stops_ = np.array(raw[finals], dtype=np.float64)
         self.default_goal_ = self._default_goal(inputs, dataset.metadata.get("goal"))
         self.max_steps_ = int(max(500, 2 * int(dataset.lengths.max())))
@@ -587,6 +606,8 @@ class SBLM(LearnedBehavior):
           :meth:`fit`; an existing primitive with new rows is fine-tuned from its
           current weights on its new rows only (``MotionGenerators.partial_fit``: the
           old rows are not stored, which keeps the model file its size).
+        * ``wheel_response_``: the new demonstrations' sums are added (a sum over all
+          the demonstrations, exactly as :meth:`fit` on all of them gives it).
         * ``stops_`` gains the new demonstrations' final readings; ``rest_values_`` (their
           median), ``default_goal_`` (from ``rest_values_`` and the new dataset's goal
           channels) and ``max_steps_`` (twice the longest demonstration, at least 500)
@@ -671,6 +692,9 @@ class SBLM(LearnedBehavior):
         raw = dataset.columns(inputs)
         stops = np.vstack([self.stops_, raw[finals]])
         reach = reach_radius(x_nom, obs)
+        wheels = added_wheel_response(
+            getattr(self, "wheel_response_", None), demonstrated_wheel_response(dataset)
+        )
         retrained = [
             int(p) for p in np.unique(gen_states) if p < old.n_primitives_ and old.trained_[p]
         ]
@@ -694,6 +718,7 @@ class SBLM(LearnedBehavior):
         self.hmm_ = hmm
         self.generators_ = gens
         self.stops_ = stops
+        self.wheel_response_ = wheels
         # the old rows are not kept: the old radius, or the new rows' from the moved prototypes
         self.reach_radius_ = max(float(getattr(self, "reach_radius_", 0.0)), reach)
         self.rest_values_ = {c: float(np.median(stops[:, j])) for j, c in enumerate(inputs)}
@@ -894,6 +919,9 @@ class SBLM(LearnedBehavior):
             arrays["stops"] = self.stops_
         if getattr(self, "command_rates_", None) is not None:
             arrays["command_rates"] = self.command_rates_
+        wheels = getattr(self, "wheel_response_", None)
+        if wheels is not None:
+            arrays["wheel_response"] = wheels
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
             arrays[f"{prefix}.prototypes"] = net.prototypes_
             arrays[f"{prefix}.counts"] = net.counts_
@@ -956,7 +984,7 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("pipeline channels do not match the inputs")
         _modelfile.check_pipeline(pipeline)
         names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
-        names.update(("stops", "command_rates"))
+        names.update(("stops", "command_rates", "wheel_response"))
         extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
         if extra:
             raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
@@ -1025,7 +1053,39 @@ class SBLM(LearnedBehavior):
             if np.abs(rates).max() > _modelfile.MAX_ABS_VALUE:
                 raise ModelFileError("array 'command_rates' holds absurd values")
             model.command_rates_ = np.array(rates, dtype=np.float64)
+        model.wheel_response_ = None  # files written before it was learned have none
+        if "wheel_response" in arrays:
+            sums = _modelfile.check_array(arrays, "wheel_response", ndim=2)
+            if sums.shape != (2, 3):
+                raise ModelFileError("array 'wheel_response' must be 2 wheels x 3 sums")
+            if np.abs(sums).max() > _modelfile.MAX_ABS_VALUE:
+                raise ModelFileError("array 'wheel_response' holds absurd values")
+            model.wheel_response_ = np.array(sums, dtype=np.float64)
         return model
+
+
+def demonstrated_wheel_response(dataset: Dataset) -> np.ndarray | None:
+    """How the demonstrated wheels answered (:func:`behavior_hmm.runtime.wheel_response`),
+    or None without left/right wheel commands or measured velocities."""
+    needed = ("linear_velocity", "angular_velocity")
+    if tuple(dataset.command_channels) != COMMAND_CHANNELS or any(
+        c not in dataset.sensor_channels for c in needed
+    ):
+        return None
+    return wheel_response(
+        dataset.commands,
+        dataset.column("linear_velocity"),
+        dataset.column("angular_velocity"),
+        dataset.lengths,
+        rest=np.array([spec.rest for spec in dataset.command_specs], dtype=np.float64),
+    )
+
+
+def added_wheel_response(old: np.ndarray | None, new: np.ndarray | None) -> np.ndarray | None:
+    """The sums of both (either alone where the other is None)."""
+    if old is None or new is None:
+        return new if old is None else old
+    return np.asarray(old + new, dtype=np.float64)
 
 
 def _sequences(gens: Any, starts: NDArray[np.intp]) -> dict[str, Any]:

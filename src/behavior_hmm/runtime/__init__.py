@@ -6,6 +6,11 @@
 (:class:`Robot`, docs/robots.md) and records a :class:`Trace`.
 """
 
+from behavior_hmm.runtime._calibration import (
+    WheelCalibration,
+    reference_gains,
+    wheel_response,
+)
 from behavior_hmm.runtime._loop import (
     DEFAULT_FAULT_HOLD_S,
     SensorHold,
@@ -33,10 +38,13 @@ __all__ = [
     "SensorHold",
     "StepOutput",
     "Trace",
+    "WheelCalibration",
     "hold_steps",
     "make_robot_env",
     "ordered_channels",
     "parse_env_kwargs",
+    "reference_gains",
     "run_policy",
     "start_options",
+    "wheel_response",
 ]

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from behavior_hmm.data._channels import channel, within_tolerance
 from behavior_hmm.errors import ConfigError
+from behavior_hmm.runtime._calibration import WheelCalibration
 from behavior_hmm.runtime._policy import Policy
 from behavior_hmm.runtime._robot import Robot
 from behavior_hmm.runtime._trace import Trace
@@ -222,6 +223,8 @@ def run_policy(
     pushes: Sequence[Mapping[str, float]] | None = None,
     fault_hold_s: float = DEFAULT_FAULT_HOLD_S,
     progress_limit: float = 1.0,
+    wheel_calibration: bool = False,
+    wheel_response: NDArray[np.float64] | None = None,
 ) -> Trace:
     """Reset ``env`` at ``start`` and run ``policy`` until done or ``max_steps``.
 
@@ -259,6 +262,16 @@ def run_policy(
         step limit still closes in on its goal (:class:`Progress`); 1 (default): the
         step limit is fixed. A run that ends past ``max_steps`` without its goal ends
         with ``reason == "step_limit"`` too.
+    wheel_calibration
+        Estimate each wheel's gain from the robot's measured body speed and yaw rate and
+        divide the commands by it (:class:`~behavior_hmm.runtime.WheelCalibration`); the
+        trace records the commands sent and the final gains (``wheel_gains``). A robot
+        that cannot be calibrated (no wheel geometry, no measured velocities) runs
+        uncorrected, with a warning.
+    wheel_response
+        How the demonstrated robot's wheels answered (a model's ``wheel_response_``,
+        :func:`~behavior_hmm.runtime.wheel_response`): the calibration restores their
+        difference; None calibrates toward equal wheels.
     """
     robot = env if isinstance(env, Robot) else Robot(env)
     dt = robot.control_period
@@ -272,6 +285,7 @@ def run_policy(
     if callable(bind):  # e.g. rules that read channels only some robots have
         bind(robot.channels)
     guard = SensorHold(robot.channels, policy.channels, hold_steps(fault_hold_s, dt))
+    calibration = WheelCalibration.for_robot(robot, wheel_response) if wheel_calibration else None
     options = start_options(start, noise, pushes, robot)
     names = robot.channels
     commanded = False  # whether any command reached env.step in this run
@@ -279,6 +293,8 @@ def run_policy(
     try:
         reading, true, pose = robot.reset(seed=seed, options=options)
         policy.reset()
+        if calibration is not None:
+            calibration.reset()
         trace = Trace(
             goal=dict(policy.goal),
             start=dict(start or {}),
@@ -319,6 +335,9 @@ def run_policy(
             values = dict(zip(names, seen.tolist(), strict=True))
             progress.observe(k, values)
             out = policy.step(values)
+            if calibration is not None and not out.done:
+                calibration.observe(values["linear_velocity"], values["angular_velocity"])
+                out = out._replace(command=calibration.correct(out.command))
             trace.observation.append(int(out.observation))
             trace.novel.append(bool(out.novel))
             trace.state.append(int(out.state))
@@ -341,6 +360,8 @@ def run_policy(
     trace.final_observation = true
     trace.final_pose = None if pose is None else np.asarray(pose, dtype=np.float64)
     trace.reason = reason
+    if calibration is not None:
+        trace.wheel_gains = [float(g) for g in calibration.gains]
     values = robot.as_dict(true)
     trace.goal_reached = reason != "sensor_fault" and within_tolerance(
         values, trace.goal, 1.0, trace.channel_specs

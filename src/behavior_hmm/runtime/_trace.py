@@ -44,6 +44,8 @@ class Trace:
     fault_channels : the channels whose fault ended the run (empty otherwise)
     final_observation : (C,) noise-free readings after the final stop command
     final_pose : pose after the final stop command (or None)
+    wheel_gains : (left, right) wheel gains estimated by the end of a run with
+        ``wheel_calibration`` (measured wheel speed per unit of command); None without
     channel_specs : declarations of the channels the registry does not know
     """
 
@@ -66,6 +68,7 @@ class Trace:
     goal_reached: bool = False
     reason: str = ""
     fault_channels: list[str] = field(default_factory=list)
+    wheel_gains: list[float] | None = None
     final_observation: NDArray[np.float64] | None = None
     #: declarations of the channels the registry does not know (the robot's sensors and
     #: commands, the model's own), for the goal's tolerance, an angle's wrap, plot units
@@ -165,6 +168,7 @@ class Trace:
             "held_readings": self.held_readings,
             "fault_channels": list(self.fault_channels),
             "command_channels": list(self.command_channels),
+            **({} if self.wheel_gains is None else {"wheel_gains": list(self.wheel_gains)}),
         }
 
     def write(self, path: str | os.PathLike[str]) -> None:

@@ -45,7 +45,8 @@ def faults_markdown(results: dict[str, Any]) -> str:
     tasks = results["tasks"]
     lines = [
         f"Goal reached (of {tasks[0]['baseline']['n']} test starts) · mean success rate, "
-        f"default preset, {results['sim']} sim, seed {results['seed']}.",
+        f"{results.get('preset', 'default')} preset, {results['sim']} sim, "
+        f"seed {results['seed']}.",
         "",
         "| no fault | " + " | ".join(_task_label(t) for t in tasks) + " |",
         "| --- |" + " --- |" * len(tasks),
@@ -157,7 +158,8 @@ def plot_faults(results: dict[str, Any], metric: str = "goal_reached") -> Figure
     handles, labels = axes[0].get_legend_handles_labels()
     what = "goal reached" if metric == "goal_reached" else "mean success rate"
     fig.suptitle(
-        f"{what} under faults ({results['sim']} sim, default preset; dotted: no fault)",
+        f"{what} under faults ({results['sim']} sim, {results.get('preset', 'default')} "
+        "preset; dotted: no fault)",
         fontsize=10,
     )
     fig.legend(
