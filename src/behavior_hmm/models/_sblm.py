@@ -46,7 +46,11 @@ from behavior_hmm.models._base import (
     dataset_hash,
 )
 from behavior_hmm.models._goals import AUTO_INPUTS, check_goal, check_input_names
-from behavior_hmm.runtime._calibration import wheel_response
+from behavior_hmm.runtime._calibration import (
+    CALIBRATION_CHANNELS,
+    CALIBRATION_COMMANDS,
+    wheel_response,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -1067,15 +1071,15 @@ class SBLM(LearnedBehavior):
 def demonstrated_wheel_response(dataset: Dataset) -> np.ndarray | None:
     """How the demonstrated wheels answered (:func:`behavior_hmm.runtime.wheel_response`),
     or None without left/right wheel commands or measured velocities."""
-    needed = ("linear_velocity", "angular_velocity")
-    if tuple(dataset.command_channels) != COMMAND_CHANNELS or any(
-        c not in dataset.sensor_channels for c in needed
+    if tuple(dataset.command_channels) != CALIBRATION_COMMANDS or any(
+        c not in dataset.sensor_channels for c in CALIBRATION_CHANNELS
     ):
         return None
+    speed, yaw_rate = (dataset.column(c) for c in CALIBRATION_CHANNELS)
     return wheel_response(
         dataset.commands,
-        dataset.column("linear_velocity"),
-        dataset.column("angular_velocity"),
+        speed,
+        yaw_rate,
         dataset.lengths,
         rest=np.array([spec.rest for spec in dataset.command_specs], dtype=np.float64),
     )

@@ -187,9 +187,6 @@ class WheelCalibration:
             )
             return None
         spec = robot.spec
-        order = [robot.command_channels.index(c) for c in CALIBRATION_COMMANDS]
-        if order != [0, 1]:  # the contract's wheels are (left, right) in action order
-            raise ConfigError("wheel calibration needs the commands in the order left, right")
         reference = None
         if response is not None:
             reference = reference_gains(response, spec.wheel_radius, spec.track_width)
@@ -228,14 +225,11 @@ class WheelCalibration:
             math.isfinite(linear_velocity) and math.isfinite(angular_velocity)
         ):
             return
-        # the behavior's commands up to the one paired with this reading: held steady?
-        # (the correction's own slow changes do not count as a change of command)
-        span = min(self.steady, history - self.lag) + 1
-        asked = np.asarray(self._asked[history - self.lag - span + 1 : history - self.lag + 1])
-        spread = np.max(np.abs(asked - asked[-1]), axis=0)
-        steady = (span > self.steady) & (
-            spread <= CALIBRATION_STEADY_SHARE * np.abs(asked[-1] - self.rest)
-        )
+        # the behavior's commands up to the one paired with this reading: held steady, by
+        # the rule the demonstrations' pairs are chosen by (the correction's own slow
+        # changes do not count as a change of command)
+        asked = np.asarray(self._asked[: history - self.lag + 1]) - self.rest
+        steady = _held(asked, self.steady)[-1]
         u = self._sent[-self.lag] - self.rest
         w = self.wheel_speeds(linear_velocity, angular_velocity) - self.rest
         learn = np.where(steady, 1.0, 0.0)
@@ -346,9 +340,8 @@ def _missing(robot: Robot) -> str:
             f"the robot's commands are {', '.join(robot.command_channels)}, not the two "
             "wheels left, right"
         )
-    measured = [c for c in CALIBRATION_CHANNELS if c in robot.channels and c not in robot.derived]
-    if len(measured) < len(CALIBRATION_CHANNELS):
-        lacking = [c for c in CALIBRATION_CHANNELS if c not in measured]
+    lacking = [c for c in CALIBRATION_CHANNELS if c not in robot.channels or c in robot.derived]
+    if lacking:
         return f"the robot does not measure {', '.join(lacking)}"
     try:
         _ = robot.spec

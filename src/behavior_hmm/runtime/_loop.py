@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from behavior_hmm.data._channels import channel, within_tolerance
 from behavior_hmm.errors import ConfigError
-from behavior_hmm.runtime._calibration import WheelCalibration
+from behavior_hmm.runtime._calibration import CALIBRATION_CHANNELS, WheelCalibration
 from behavior_hmm.runtime._policy import Policy
 from behavior_hmm.runtime._robot import Robot
 from behavior_hmm.runtime._trace import Trace
@@ -336,7 +336,7 @@ def run_policy(
             progress.observe(k, values)
             out = policy.step(values)
             if calibration is not None and not out.done:
-                calibration.observe(values["linear_velocity"], values["angular_velocity"])
+                calibration.observe(*(values[c] for c in CALIBRATION_CHANNELS))
                 out = out._replace(command=calibration.correct(out.command))
             trace.observation.append(int(out.observation))
             trace.novel.append(bool(out.novel))
