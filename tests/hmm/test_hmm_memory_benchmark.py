@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import behavior_hmm.benchmarks.memory as bench
+from behavior_hmm.cobart import _index
 
 
 def test_synthetic_walks_end_at_the_goal_one_level_per_step() -> None:
@@ -53,15 +54,41 @@ def test_scaling_probe_loads_the_file_and_times_every_cycle(
     assert row["file_mb"] < row["dense_c_would_be_mb"]
 
 
+def test_scaling_probe_categorizes_a_reading_every_cycle_with_prototypes(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, turn_model: Any
+) -> None:
+    monkeypatch.setattr(bench, "SIZES", ((2_000, 20),))
+    monkeypatch.setattr(bench, "WALKS", 2)
+    (row,) = bench._scaling(quick=False, folder=tmp_path, obs=turn_model.observations_)
+    assert row["categorizer_build_s"] > 0
+    assert 0 < row["control_step_us_median"] <= row["control_step_us_p99"]
+    assert row["control_step_us_p99"] <= row["control_step_us_max"]
+    # the cycle is the categorization and the HMM calls: never less than the calls alone
+    assert row["control_step_us_median"] > row["step_us_median"]
+
+
+def test_drawn_prototypes_are_near_copies_of_the_models(turn_model: Any) -> None:
+    obs = turn_model.observations_
+    net = bench.drawn_prototypes(obs, 500)
+    assert net.n_categories_ == 500 and net.get_params() == obs.get_params()
+    gap = np.abs(net.prototypes_[:, None] - obs.prototypes_[None]).max(axis=(2, 3)).min(axis=1)
+    assert gap.max() < 0.06  # every drawn window within a few σ of one of the model's
+
+
 def test_child_peak_is_measured_in_a_process_of_its_own() -> None:
     peak, wall = bench._child_peak_mb(["--version"])
     assert peak > 10 and wall > 0
 
 
-def test_live_match_times_the_categorization_at_each_size(turn_model: Any) -> None:
+def test_live_match_times_the_categorization_at_each_size(
+    monkeypatch: pytest.MonkeyPatch, turn_model: Any
+) -> None:
+    monkeypatch.setattr(_index, "INDEX_MIN_CATEGORIES", 400)
     rows = bench.live_match(turn_model, sizes=(50, 400))
     assert [r["observation_categories"] for r in rows] == [50, 400]
     assert all(0 < r["update_us_median"] <= r["update_us_p99"] for r in rows)
+    assert [r["indexed"] for r in rows] == [False, True]
+    assert rows[0]["scored_median"] == 50 and 0 < rows[1]["scored_median"] < 400
 
 
 def test_plot_memory_draws_every_size(tmp_path: Path) -> None:

@@ -140,6 +140,18 @@ def plot_memory(results: dict[str, Any], out: Path) -> Path:
     axes[2].plot(x, [r["step_us_p99"] for r in rows], "o-", label="99th percentile")
     axes[2].plot(x, [r["step_us_max"] for r in rows], "^--", color="grey", label="maximum")
     axes[2].plot(x, [r["step_us_median"] for r in rows], "s-", color="green", label="median")
+    control = [r for r in rows if "control_step_us_p99" in r]
+    if control:  # runs that also categorized a reading every cycle
+        cx = [r["observation_categories"] for r in control]
+        for key, style, what in (("p99", "o-", "99th pct."), ("max", "^--", "maximum")):
+            axes[2].plot(
+                cx,
+                [r[f"control_step_us_{key}"] for r in control],
+                style,
+                color="purple",
+                alpha=0.6,
+                label=f"with categorization, {what}",
+            )
     axes[2].axhline(1000, color="red", lw=0.8, ls=":", label="1 ms")
     titles = ("load of the file, ms", "load peak above imports, MB", "per-cycle planning, µs")
     for ax, title in zip(axes, titles, strict=True):

@@ -19,10 +19,15 @@ waited for it):
   The goal's shortest-path tree is built before the first step (``prepare_goals``,
   reported as ``prepare_goal_ms``), as a controller builds it before the robot moves.
 
-What the step here leaves out: the live CobART match of a reading over all observation
-categories (one matrix product, linear in the categories), timed apart in ``live_match``
-with prototypes drawn from the turn model's, and the motion generator. ``bench step``
-times whole control steps of trained models.
+  Each size also gets as many observation prototypes, drawn from the turn model's
+  (:func:`drawn_prototypes`), and every cycle first categorizes a reading of a turn
+  against them (``CobART.stream().update``, searching the prototype index from
+  ``INDEX_MIN_CATEGORIES`` on) and then makes the HMM calls: ``control_step_us_*`` is
+  the two together, ``step_us_*`` the HMM calls alone, ``categorizer_build_s`` the time
+  to make the live categorizer (its index included).
+
+``live_match`` times the categorization alone at a few sizes. What both leave out is the
+motion generator; ``bench step`` times whole control steps of trained models.
 """
 
 from __future__ import annotations
@@ -50,7 +55,10 @@ HOLD_CYCLES = 3
 #: Held-out walks timed per size.
 WALKS = 20
 #: Observation categories the live CobART match is timed with (``live_match``).
-LIVE_SIZES = (2_315, 100_000)
+LIVE_SIZES = (2_315, 10_000, 100_000)
+#: Readings of each way of the turn the live categorizer is timed on (normalized angle
+#: 0.9 → 0.1, then back: a stream without jumps, as a robot's is).
+TURN_READINGS = 600
 
 
 def synthetic_walks(
@@ -135,12 +143,14 @@ def _rss_mb() -> float:
     return pages * os.sysconf("SC_PAGE_SIZE") / 1024.0 / 1024.0
 
 
-def probe_load(path: str, walks: int = WALKS) -> dict[str, Any]:
+def probe_load(path: str, walks: int = WALKS, prototypes: str | None = None) -> dict[str, Any]:
     """In this (fresh) process: load the arrays file, then time the controller's HMM calls.
 
     The first step of each walk is reported apart (``first_step_us_*``), as ``bench
     step`` reports it: it decodes the whole path from where the robot starts before
-    the robot moves (a few ms for a path of 500 categories).
+    the robot moves (a few ms for a path of 500 categories). With ``prototypes`` (a file
+    written by :func:`_save_prototypes`), every cycle first categorizes the next reading
+    of a turn against them (``control_step_us_*``: both parts).
     """
     import gc
     import time
@@ -164,23 +174,52 @@ def probe_load(path: str, walks: int = WALKS) -> dict[str, Any]:
     hmm.prepare_goals([goal])
     prepare_ms = (time.perf_counter() - t0) * 1e3
     cats, lengths = synthetic_walks(hmm.n_observations_, walks, rng)
+    live = None
+    build_s = 0.0
+    if prototypes is not None:
+        t0 = time.perf_counter()
+        live = _load_prototypes(prototypes).stream()
+        build_s = time.perf_counter() - t0
+    readings = _turn_readings()
     times: list[float] = []
+    control: list[float] = []
     first: list[float] = []
     clock = time.perf_counter_ns
     gc.collect()
     gc.freeze()  # what set-up made is out of the collector's reach, as in bench step
+    cycle = 0
     for walk in np.split(cats, np.cumsum(lengths)[:-1]):
         last = -1
+        if live is not None:
+            live.reset()
         for k, cat in enumerate(np.repeat(walk, HOLD_CYCLES).tolist()):
             t0 = clock()
+            if live is not None:
+                live.update(readings[cycle % len(readings)])
+                cycle += 1
+            t1 = clock()
             if hmm.can_plan(cat, goal):
                 hmm.state_scores(cat, goal)
                 if cat != last:
                     hmm.plan(cat, goal)
-            (times if k else first).append((clock() - t0) / 1e3)
+            t2 = clock()
+            if k:
+                times.append((t2 - t1) / 1e3)
+                control.append((t2 - t0) / 1e3)
+            else:
+                first.append((t2 - t1) / 1e3)
             last = cat
     t = np.asarray(times)
-    return {
+    out: dict[str, Any] = {}
+    if live is not None:
+        c = np.asarray(control)
+        out = {
+            "categorizer_build_s": build_s,
+            "control_step_us_median": float(np.median(c)),
+            "control_step_us_p99": float(np.percentile(c, 99)),
+            "control_step_us_max": float(c.max()),
+        }
+    return out | {
         "first_step_us_median": float(np.median(first)),
         "first_step_us_max": float(np.max(first)),
         "load_s": load_s,
@@ -194,7 +233,28 @@ def probe_load(path: str, walks: int = WALKS) -> dict[str, Any]:
     }
 
 
-def _scaling(quick: bool, folder: Path) -> list[dict[str, Any]]:
+def _save_prototypes(net: Any, path: Path) -> None:
+    """Write a CobART's parameters and state for :func:`_load_prototypes` (no pickle)."""
+    np.savez(
+        path,
+        params=np.array(json.dumps(net.get_params())),
+        prototypes=net.prototypes_,
+        counts=net.counts_,
+        dcm_scale=net.dcm_scale_,
+    )
+
+
+def _load_prototypes(path: str) -> Any:
+    from behavior_hmm.cobart import CobART
+
+    with np.load(path, allow_pickle=False) as f:
+        net = CobART(**json.loads(str(f["params"])))
+        return net.set_state(f["prototypes"], f["counts"], f["dcm_scale"])
+
+
+def _scaling(quick: bool, folder: Path, obs: Any = None) -> list[dict[str, Any]]:
+    """The scaling rows; with ``obs`` (a turn model's observation CobART) each size's cycles
+    categorize a reading first (:func:`probe_load`)."""
     from behavior_hmm.models import _modelfile
 
     rows = []
@@ -203,12 +263,17 @@ def _scaling(quick: bool, folder: Path) -> list[dict[str, Any]]:
         arrays = {f"hmm.{k}": v for k, v in hmm.to_arrays().items()}
         path = folder / f"hmm_{n_obs}_{n_states}.bhmm"
         _modelfile.dump(path, "BehaviorHMM", {}, {"hmm": hmm.params}, arrays)
+        extra = []
+        if obs is not None:
+            protos = folder / f"prototypes_{n_obs}.npz"
+            _save_prototypes(drawn_prototypes(obs, n_obs), protos)
+            extra = [str(protos)]
         code = (
             "import json, sys; from behavior_hmm.benchmarks.memory import probe_load; "
-            "print(json.dumps(probe_load(sys.argv[1], int(sys.argv[2]))))"
+            "print(json.dumps(probe_load(sys.argv[1], int(sys.argv[2]), *sys.argv[3:])))"
         )
         done = subprocess.run(
-            [sys.executable, "-c", code, str(path), str(WALKS)],
+            [sys.executable, "-c", code, str(path), str(WALKS), *extra],
             capture_output=True,
             text=True,
             check=True,
@@ -273,38 +338,58 @@ def _cli(folder: Path) -> tuple[dict[str, Any], Any]:
     return out, turn
 
 
+def drawn_prototypes(obs: Any, k: int, seed: int = 0) -> Any:
+    """A CobART of ``k`` categories drawn from ``obs``'s prototypes with a little noise.
+
+    Noise of σ 0.01 (normalized units) on every reading of each drawn window, so the
+    categories are windows the robot sees, ``k / K`` near copies of each.
+    """
+    from behavior_hmm.cobart import CobART
+
+    rng = np.random.default_rng(seed)
+    picks = obs.prototypes_[rng.integers(0, obs.n_categories_, k)]
+    net = CobART(**obs.get_params())
+    return net.set_state(
+        picks + rng.normal(0.0, 0.01, picks.shape), np.ones(k, np.int64), obs.dcm_scale_
+    )
+
+
+def _turn_readings() -> list[np.ndarray]:
+    way = np.linspace(0.9, 0.1, TURN_READINGS)
+    return [np.array([v]) for v in np.r_[way, way[::-1]].tolist()]
+
+
 def live_match(model: Any, sizes: tuple[int, ...] = LIVE_SIZES) -> list[dict[str, Any]]:
     """Time the live CobART match of one reading against ``K`` observation categories.
 
-    The part of a control step the scaling rows leave out. ``K`` prototypes are drawn from
-    ``model``'s observation prototypes with a little noise (so they are windows the robot
-    sees), and a turn from 0.9 to 0.1 (normalized angle, 600 readings) is categorized.
+    ``K`` prototypes are drawn from ``model``'s observation prototypes
+    (:func:`drawn_prototypes`), and a turn from 0.9 to 0.1 and back (normalized angle,
+    1,200 readings) is categorized. ``indexed``: whether the prototype index was searched;
+    ``scored_median``: prototypes scored per reading.
     """
     import time
 
-    from behavior_hmm.cobart import CobART
-
-    obs = model.observations_
-    rng = np.random.default_rng(0)
     rows = []
     for k in sizes:
-        picks = obs.prototypes_[rng.integers(0, obs.n_categories_, k)]
-        net = CobART(**obs.get_params())
-        net.set_state(
-            picks + rng.normal(0.0, 0.01, picks.shape), np.ones(k, np.int64), obs.dcm_scale_
-        )
-        live = net.stream()
-        times = []
-        for value in np.linspace(0.9, 0.1, 600).tolist():
-            reading = np.array([value])
+        t0 = time.perf_counter()
+        live = drawn_prototypes(model.observations_, k).stream()
+        build_s = time.perf_counter() - t0
+        index = live._pred.index
+        times, scored = [], []
+        for reading in _turn_readings():
             t0 = time.perf_counter_ns()
             live.update(reading)
             times.append((time.perf_counter_ns() - t0) / 1e3)
+            scored.append(index.scored if index is not None else k)
         rows.append(
             {
                 "observation_categories": k,
+                "indexed": index is not None,
+                "build_s": build_s,
+                "scored_median": float(np.median(scored)),
                 "update_us_median": float(np.median(times)),
                 "update_us_p99": float(np.percentile(times, 99)),
+                "update_us_max": float(np.max(times)),
             }
         )
     return rows
@@ -316,5 +401,5 @@ def run(quick: bool = False) -> dict[str, Any]:
         result: dict[str, Any] = {"cpu_count": os.cpu_count()}
         result["cli"], turn = _cli(folder)
         result["live_match"] = live_match(turn)
-        result["scaling"] = _scaling(quick, folder)
+        result["scaling"] = _scaling(quick, folder, turn.observations_)
     return result

@@ -5,6 +5,7 @@ Usage::
     behavior-hmm bench sim --json sim.json     # simulator real-time factors
     behavior-hmm bench step --quick            # one control step, a smoke run
     behavior-hmm bench hmm                     # our Viterbi against hmmlearn's (bench extra)
+    behavior-hmm bench memory                  # memory and load; 100,000 categories
 
 The same runs without the command line: ``python -m behavior_hmm.benchmarks NAME``.
 """
@@ -16,6 +17,7 @@ from typing import Annotated
 
 import typer
 
+from behavior_hmm.benchmarks import available
 from behavior_hmm.cli._common import CONTEXT_SETTINGS, JsonOut, user_errors, write_json
 
 app = typer.Typer(context_settings=CONTEXT_SETTINGS)
@@ -27,7 +29,7 @@ def bench(
     name: Annotated[
         str,
         typer.Argument(
-            help="Benchmark: sim, cobart, step, train or hmm (hmm needs the bench extra: hmmlearn)"
+            help=f"Benchmark: {', '.join(available())} (hmm needs the bench extra: hmmlearn)"
         ),
     ],
     json_out: JsonOut = None,

@@ -23,10 +23,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from behavior_hmm.cobart._index import PrototypeIndex
 
 FloatArray = NDArray[np.float64]
 
@@ -178,13 +181,19 @@ class Engine:
         self.zaug = aligned_zeros((capacity, self.width))
         self.s = aligned_zeros((capacity, self.NG))
         self.v = aligned_zeros(capacity)
-        # per-row views for the single-part fast path: raw, raw[C:], raw[:-C], diffs,
-        # features, group norms
-        nr, f = self.layout.n_raw, self.F
-        c = self.layout.channels[0]
-        self.rows = [
-            (r[:nr], r[c:nr], r[: nr - c], r[nr:f], r[:f], r[f : f + self.NG]) for r in self.zaug
-        ]
+        self._rows: list[tuple[FloatArray, ...]] | None = None
+
+    @property
+    def rows(self) -> list[tuple[FloatArray, ...]]:
+        """Per-row views for the single-part fast path of learning: raw, raw[C:],
+        raw[:-C], diffs, features, group norms (made on first use: six views a row)."""
+        if self._rows is None:
+            nr, f, g = self.layout.n_raw, self.F, self.NG
+            c = self.layout.channels[0]
+            self._rows = [
+                (r[:nr], r[c:nr], r[: nr - c], r[nr:f], r[:f], r[f : f + g]) for r in self.zaug
+            ]
+        return self._rows
 
     def grow(self) -> None:
         """Double the capacity, keeping the categories."""
@@ -196,12 +205,23 @@ class Engine:
     def load(self, protos: FloatArray, counts: Sequence[int]) -> None:
         """Replace all categories by feature rows ``protos`` ``(K, F)`` with win ``counts``."""
         k = protos.shape[0]
-        while self.capacity < k:
-            self._alloc(self.capacity * 2)
-        self.K = 0
-        self.counts = []
-        for i in range(k):
-            self.add(protos[i], int(counts[i]))
+        capacity = self.capacity
+        while capacity < k:
+            capacity *= 2
+        if capacity != self.capacity:
+            self._alloc(capacity)
+        # what ``add`` does row by row, in bulk where that is bit for bit the same: the
+        # differences are elementwise; the norms keep add's per-row product
+        f, g = self.F, self.NG
+        z = self.zaug[:k]
+        z[:, :f] = features(self.layout, protos[:, : self.layout.n_raw])
+        z[:, -1] = -0.5
+        tmp, gs = self.tmp, self.gs
+        for row in z:
+            np.multiply(row[:f], row[:f], out=tmp)
+            np.dot(tmp, gs, out=row[f : f + g])
+        self.counts = [int(c) for c in counts]
+        self.K = k
 
     def _fix_diffs(self, row: FloatArray) -> None:
         """Recompute a feature row's differences from its raw readings (as ``features``)."""
@@ -347,7 +367,9 @@ class Predictor:
 
     Holds an aligned snapshot of an engine's categories; ``step`` categorizes one
     processed-input feature vector. Both offline and live paths run the same
-    operations on buffers of the same shapes, so they agree bit for bit.
+    operations on buffers of the same shapes, so they agree bit for bit. From
+    ``INDEX_MIN_CATEGORIES`` categories on, both search a :class:`PrototypeIndex`
+    (module ``_index``) instead of scoring every category: the same winners.
     """
 
     def __init__(self, eng: Engine, a: float, rho: float) -> None:
@@ -377,6 +399,12 @@ class Predictor:
         self.pt = aligned_zeros(f)
         self.pt_col = self.pt[:, None]
         self.tmp = aligned_zeros(f)
+        from behavior_hmm.cobart._index import INDEX_MIN_CATEGORIES, PrototypeIndex
+
+        self.index: PrototypeIndex | None = None
+        """Searched instead of scoring every category from ``INDEX_MIN_CATEGORIES`` on."""
+        if k >= INDEX_MIN_CATEGORIES:
+            self.index = PrototypeIndex(self.zaug, self.gs, self.wts)
 
     def exact_score(self, k: int) -> float:
         """Score of category ``k`` for the current ``pt``, directly from the differences."""
@@ -394,6 +422,7 @@ class Predictor:
         z, s, v = self.zaug, self.s, self.v
         rho = self.rho
         hi = 1.0 - EXACT_BAND
+        index = self.index
         k = -1
         for t in range(wt.shape[0]):
             if k < 0:
@@ -402,13 +431,17 @@ class Predictor:
                 np.add(awt[t], omaz[k], out=pt)
             np.multiply(gm2, pt_col, out=top)
             np.dot(pt, top, out=pn2)
-            np.dot(z, paug, out=s)
-            np.maximum(s, 0.0, out=s)
-            np.sqrt(s, out=s)
-            np.minimum(s, 1.0, out=s)
-            np.dot(s, wts, out=v)
-            k = int(v.argmin())
-            score = 1.0 - float(v[k])
+            if index is None:
+                np.dot(z, paug, out=s)
+                np.maximum(s, 0.0, out=s)
+                np.sqrt(s, out=s)
+                np.minimum(s, 1.0, out=s)
+                np.dot(s, wts, out=v)
+                k = int(v.argmin())
+                score = 1.0 - float(v[k])
+            else:
+                k, miss = index.search(pt, paug)
+                score = 1.0 - miss
             if score > hi or abs(score - rho) < EXACT_BAND:
                 score = self.exact_score(k)
             elif score < 0.0:

@@ -47,18 +47,26 @@ class LiveCategorizer:
         self._hot = (
             self._buf, self._views, self._raw, self._diff, self._wt, self._awt, i, c, p.a,
             p.omaz_rows, p.pt, p.pt_col, p.gm2, p.top, p.pn2, p.zaug, p.paug, p.s,
-            p.wts, p.v, self.rho, p.exact_score,
+            p.wts, p.v, self.rho, p.exact_score, p.index,
         )  # fmt: skip
+        self._stale = False
         self.reset()
 
     @property
     def mismatch(self) -> NDArray[np.float64]:
         """``1 - score`` of every category for the last reading, shape ``(K,)``.
 
-        A read-only view that every :meth:`update` refreshes in place (keep a reference
-        instead of copying each cycle); clipped scores may exceed 1 before clipping.
+        A read-only view of a buffer that every :meth:`update` refreshes in place (keep
+        a reference instead of copying each cycle); clipped scores may exceed 1 before
+        clipping. From ``INDEX_MIN_CATEGORIES`` categories on, an update scores only the
+        categories that could win, and reading this property scores all of them: there,
+        read the property after each update instead of keeping the view.
         """
-        view = self._pred.v.view()
+        pred = self._pred
+        if self._stale and pred.index is not None:
+            pred.index.mismatches(pred.paug, pred.v, pred.s)
+            self._stale = False
+        view = pred.v.view()
         view.flags.writeable = False
         return view
 
@@ -98,7 +106,7 @@ class LiveCategorizer:
             raise DatasetError("NaN or infinite value in live reading")
         # fmt: off
         (buf, views, raw, diff, wt, awt, i, c, a, omaz, pt, pt_col, gm2, top, pn2, zaug, paug,
-         sc, wts, v, rho, exact) = self._hot
+         sc, wts, v, rho, exact, index) = self._hot
         # fmt: on
         pos = self._pos
         if pos < 0:
@@ -123,13 +131,18 @@ class LiveCategorizer:
             np.add(awt, omaz[k], out=pt)
         np.multiply(gm2, pt_col, out=top)
         np.dot(pt, top, out=pn2)
-        np.dot(zaug, paug, out=sc)
-        np.maximum(sc, 0.0, out=sc)
-        np.sqrt(sc, out=sc)
-        np.minimum(sc, 1.0, out=sc)
-        np.dot(sc, wts, out=v)
-        k = int(v.argmin())
-        score = 1.0 - float(v[k])
+        if index is None:
+            np.dot(zaug, paug, out=sc)
+            np.maximum(sc, 0.0, out=sc)
+            np.sqrt(sc, out=sc)
+            np.minimum(sc, 1.0, out=sc)
+            np.dot(sc, wts, out=v)
+            k = int(v.argmin())
+            score = 1.0 - float(v[k])
+        else:
+            k, miss = index.search(pt, paug)
+            score = 1.0 - miss
+            self._stale = True
         if score > 1.0 - EXACT_BAND or abs(score - rho) < EXACT_BAND:
             score = exact(k)
         elif score < 0.0:

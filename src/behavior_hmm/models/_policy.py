@@ -279,7 +279,6 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._live = model.observations_.stream()
         self._recognize = bool(model.primitive_recognition)
         self._prim_live = model.primitives_.stream()
-        self._prim_miss = self._prim_live.mismatch  # 1 - score of every primitive (live)
         self._hmm = model.hmm_
         self._generator = model.generators_.stepper()
         self._scale = np.asarray(model.command_scales_, dtype=np.float64)
@@ -574,7 +573,7 @@ class SimplePolicy(GoalTracking, RateLimited):
 
     def _recognized(self, total: FloatArray) -> int:
         """Best-matching live primitive among those the plan allows (finite score)."""
-        miss = np.where(np.isfinite(total), self._prim_miss, np.inf)
+        miss = np.where(np.isfinite(total), self._prim_live.mismatch, np.inf)
         return int(np.argmin(miss))
 
 
