@@ -21,13 +21,14 @@ TURN, APPROACH, GRASP = 0, 1, 2
 O_C, O_1, O_2, O_G, O_FAR = 0, 1, 2, 3, 4  # thesis ch. 5: o_c, o1, o2, o_g; O_FAR: 70°, 0 m
 
 
-def complex_behavior_model() -> BehaviorHMM:
+def complex_behavior_model(**params: float) -> BehaviorHMM:
     """CBLM-style data: states are learned behaviors, tagged per control cycle."""
     ep1_s = [TURN] * 5 + [APPROACH] * 5 + [GRASP] * 4
     ep1_o = [O_C] * 5 + [O_1] * 5 + [O_2] * 3 + [O_G]
     ep2_s = [TURN] * 4 + [GRASP] * 3
     ep2_o = [O_FAR] * 4 + [O_2] * 2 + [O_G]
-    return BehaviorHMM().fit(ep1_s + ep2_s, ep1_o + ep2_o, lengths=[len(ep1_s), len(ep2_s)])
+    hmm = BehaviorHMM(**params)  # type: ignore[arg-type]
+    return hmm.fit(ep1_s + ep2_s, ep1_o + ep2_o, lengths=[len(ep1_s), len(ep2_s)])
 
 
 def test_thesis_chapter_5_example() -> None:
@@ -105,6 +106,31 @@ def test_lru_eviction_keeps_results_correct(monkeypatch: pytest.MonkeyPatch) -> 
     plans = [hmm.plan(c, g) for c, g in pairs]
     assert len(hmm._plans) == 2
     assert plans == [fresh.plan(c, g) for c, g in pairs]
+
+
+def test_prepare_goals_computes_every_message_the_plans_then_use() -> None:
+    import behavior_hmm.benchmarks.memory as bench
+
+    hmm = bench.synthetic_hmm(3_000, 40)
+    hmm.prepare_goals([0])
+    decoder = hmm._decoders[0]
+    reaching = np.flatnonzero(np.isfinite(hmm._tree(0).cost))
+    assert reaching.size > 2_000 and set(decoder._value) == set(reaching.tolist())
+    cats, _ = bench.synthetic_walks(3_000, 5, np.random.default_rng(2))
+    fresh = bench.synthetic_hmm(3_000, 40)  # computes each path's messages on first use
+    for c in dict.fromkeys(cats.tolist()):
+        if hmm.can_plan(c, 0):
+            assert hmm.plan(c, 0) == fresh.plan(c, 0)
+            np.testing.assert_array_equal(hmm.state_scores(c, 0), fresh.state_scores(c, 0))
+    assert set(decoder._value) == set(reaching.tolist())  # nothing left to compute
+
+
+def test_prepare_goals_leaves_the_messages_of_a_smoothed_b_to_first_use() -> None:
+    hmm = complex_behavior_model(smoothing=0.1)
+    hmm.prepare_goals([O_G])
+    decoder = hmm._decoders[O_G]
+    assert decoder._dense and not decoder._full_value  # N-vectors: only on first use
+    assert hmm.plan(O_C, O_G).observations[-1] == O_G
 
 
 def test_refit_clears_the_caches() -> None:

@@ -133,27 +133,33 @@ def plot_memory(results: dict[str, Any], out: Path) -> Path:
 
     rows = sorted(results["scaling"], key=lambda r: (r["observation_categories"], r["states"]))
     x = [r["observation_categories"] for r in rows]
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
     axes[0].plot(x, [r["load_s"] * 1e3 for r in rows], "o-", label="load")
     axes[1].plot(x, [r["load_peak_above_imports_mb"] for r in rows], "o-", label="load peak")
     axes[1].plot(x, [r["dense_c_would_be_mb"] for r in rows], "k:", label="one dense C table")
-    axes[2].plot(x, [r["step_us_p99"] for r in rows], "o-", label="99th percentile")
-    axes[2].plot(x, [r["step_us_max"] for r in rows], "^--", color="grey", label="maximum")
-    axes[2].plot(x, [r["step_us_median"] for r in rows], "s-", color="green", label="median")
+    axes[2].plot(x, [r["step_us_p99"] for r in rows], "o-", label="HMM calls, 99th pct.")
+    axes[2].plot(
+        x, [r["step_us_median"] for r in rows], "s-", color="green", label="HMM calls, median"
+    )
     control = [r for r in rows if "control_step_us_p99" in r]
     if control:  # runs that also categorized a reading every cycle
         cx = [r["observation_categories"] for r in control]
-        for key, style, what in (("p99", "o-", "99th pct."), ("max", "^--", "maximum")):
+        for key, style, color, what in (
+            ("median", "s-", "orchid", "median"),
+            ("p99", "o-", "purple", "99th pct."),
+            ("max", "^--", "grey", "maximum"),
+        ):
             axes[2].plot(
                 cx,
                 [r[f"control_step_us_{key}"] for r in control],
                 style,
-                color="purple",
-                alpha=0.6,
-                label=f"with categorization, {what}",
+                color=color,
+                label=f"categorization + HMM, {what}",
             )
+    else:
+        axes[2].plot(x, [r["step_us_max"] for r in rows], "^--", color="grey", label="maximum")
     axes[2].axhline(1000, color="red", lw=0.8, ls=":", label="1 ms")
-    titles = ("load of the file, ms", "load peak above imports, MB", "per-cycle planning, µs")
+    titles = ("load of the file, ms", "load peak above imports, MB", "per control cycle, µs")
     for ax, title in zip(axes, titles, strict=True):
         first = ax.lines[0].get_ydata()  # name each point of the first curve by its states
         for i, r in enumerate(rows):
@@ -165,7 +171,10 @@ def plot_memory(results: dict[str, Any], out: Path) -> Path:
                 fontsize=7,
             )
         _log_log(ax, "observation categories", title)
-        ax.legend(fontsize=7, loc="center right" if ax is axes[2] else "upper left")
+        if ax is axes[2]:
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+        else:
+            ax.legend(fontsize=7, loc="upper left")
     fig.suptitle("Sparse Behavior-HMM on synthetic models (bench memory; N = states)", fontsize=11)
     return _save(fig, out / "memory_scaling.png")
 

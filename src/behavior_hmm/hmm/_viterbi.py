@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Container, Mapping, Sequence
+from collections.abc import Container, Iterable, Mapping, Sequence
 from typing import Literal
 
 import numpy as np
@@ -484,6 +484,19 @@ class TreeViterbi:
             best = scores.argmax(axis=1)
             self._full_value[u] = scores[self._rows, best] + self._log_B.column(u)
             self._full_next[u] = best.tolist()
+
+    def compute(self, nodes: Iterable[int]) -> None:
+        """Compute the messages of ``nodes`` (and of their paths) now; a smoothed B's later.
+
+        The values are those a first use computes (each depends on its node and the
+        next one only), so when they are computed changes no plan.
+        """
+        if self._dense:
+            return
+        done = self._value
+        for u in nodes:
+            if u not in done:
+                self._compute(u)
 
     def _compute(self, node: int) -> None:
         """Compute the messages of ``node`` and of the nodes after it not yet computed."""
