@@ -165,8 +165,9 @@ def test_the_cli_runs_one_shape(tmp_path: Path) -> None:
     saved = json.loads((out / "results.json").read_text())
     assert [s["shape"] for s in saved["shapes"]] == ["Line"]
     assert saved["shapes"][0]["protocols"]["held_out"]["SBLM"]["reached"] == 3
-    assert saved["settings"]["sblm_preset"] == "default"
-    assert saved["settings"]["sblm_params"] == {}
+    # the experiment's SBLM: the default preset with recover (LASA_SBLM_PARAMS)
+    assert saved["settings"]["sblm_preset"] == "default + recover=True"
+    assert saved["settings"]["sblm_params"] == {"recover": True}
     assert (out / "lasa_held_out.png").exists()
     bad = CliRunner().invoke(app, ["experiment", "lasa", "--shape", "Circle", "-o", str(out)])
     assert bad.exit_code == 2 and "unknown LASA shape 'Circle'" in bad.output
@@ -179,13 +180,17 @@ def test_the_cli_names_a_changed_sblm_in_the_results(tmp_path: Path) -> None:
 
     out = tmp_path / "lasa"
     args = ["experiment", "lasa", "--shape", "line", "--grid", "0", "--workers", "1"]
-    result = CliRunner().invoke(app, [*args, "--set", "recover=true", "-o", str(out)])
+    result = CliRunner().invoke(app, [*args, "--set", "recover=false", "-o", str(out)])
     assert result.exit_code == 0, result.output
     saved = json.loads((out / "results.json").read_text())
-    assert saved["settings"]["sblm_preset"] == "default + recover=True"
-    assert saved["settings"]["sblm_params"] == {"recover": True}
+    assert saved["settings"]["sblm_preset"] == "default"
+    assert saved["settings"]["sblm_params"] == {}
     table = (out / "table.md").read_text(encoding="utf-8")
-    assert table.startswith("SBLM: the default + recover=True preset.")
+    assert table.startswith("SBLM: the default preset.")
+    both = CliRunner().invoke(app, [*args, "--set", "stop_at_rest=false", "-o", str(out)])
+    assert both.exit_code == 0, both.output
+    saved = json.loads((out / "results.json").read_text())
+    assert saved["settings"]["sblm_params"] == {"recover": True, "stop_at_rest": False}
     bad = CliRunner().invoke(app, [*args, "--set", "recover=maybe", "-o", str(tmp_path / "x")])
     assert bad.exit_code == 2 and "recover" in bad.output
 

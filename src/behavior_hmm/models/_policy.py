@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.data._channels import TOLERANCES, ChannelSpec, within_tolerance
+from behavior_hmm.data._filter import LowPassFilter
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
 from behavior_hmm.runtime._policy import StepOutput
@@ -34,6 +35,18 @@ RECOVER_ENTER = 2.0
 #: grid of starts, steering at RECOVER_SPEED: 19 of 36 reached with 1, 23 with 0.5, 18
 #: with 0.25).
 RECOVER_EXIT = 0.5
+#: ``recover``: a run in its goal category, outside the goal's tolerance, that has not
+#: come closer to the goal (by ``CLOSE_PROGRESS`` of the tolerance) for this many cycles
+#: is steered onto the goal itself, at RECOVER_SPEED, closing in RECOVER_CYCLES, until
+#: its run ends or it leaves the goal category. The generators learned to rest at the
+#: goal, not to find it from a unit or two off: LASA runs came to rest there (LShape,
+#: Line) or circled it (CShape's held-out starts, 1-2.5 units off for hundreds of
+#: cycles). A run that slows down into its goal comes closer every cycle and is left
+#: alone.
+CLOSE_CYCLES = 8
+#: ... closer meaning: its largest goal error, in tolerances, below the least so far by
+#: this much.
+CLOSE_PROGRESS = 0.01
 #: ``recover``: the steering command's largest channel, at most this share of its
 #: command scale ...
 RECOVER_SPEED = 0.5
@@ -242,7 +255,9 @@ class SimplePolicy(GoalTracking, RateLimited):
     live window among those the plan allows), and command the wheels from that
     primitive's motion generator (fed the cycles since the start when the model has an
     ``onset_clock``). It stops when the goal category is reached
-    *and* the filtered readings lie within the goal's physical tolerance.
+    *and* the filtered readings lie within the goal's physical tolerance (with
+    ``recover``, on a robot without velocity readings, which cannot show rest: where the
+    robot is now, the filtered readings moved on by how far the filter makes them trail).
 
     Parameters
     ----------
@@ -314,9 +329,21 @@ class SimplePolicy(GoalTracking, RateLimited):
         if self._recover:
             self._set_recovery(model)
         self._returning = False
+        self._goal_cycles = 0
+        self._nearest = np.inf
+        self._closing = False
         filters = model.pipeline_.filters
         #: cycles the filtered readings trail the robot while it moves steadily
         self._lag = filters[0].lag_samples if filters else 0.0
+        #: ``recover``: judge the goal where the robot is now, not where the lagging
+        #: filtered readings put it (set by ``bind`` on a robot whose readings cannot show
+        #: rest): the inputs' change the sent commands made (``command_rates_``), less that
+        #: change filtered by the readings' filter, is how far the readings trail the robot
+        self._lead = False
+        self._lead_filter = (
+            LowPassFilter(filters[0].cutoff_hz, filters[0].fs).online() if filters else None
+        )
+        self._moved = np.zeros(len(self._channels))
         self._brake_reset()
 
     def reset(self) -> None:
@@ -335,6 +362,12 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._limit_reset()
         self._brake_reset()
         self._returning = False
+        self._goal_cycles = 0
+        self._nearest = np.inf
+        self._closing = False
+        self._moved = np.zeros(len(self._channels))
+        if self._lead_filter is not None:
+            self._lead_filter.reset(self._moved)
 
     def _set_recovery(self, model: SBLM) -> None:
         """``recover``: the prototypes' newest readings, how far the demonstrations
@@ -362,13 +395,46 @@ class SimplePolicy(GoalTracking, RateLimited):
             return y
         change = (self._anchors[nearest] - x) / self._gain  # physical units
         change[self._wraps] = (change[self._wraps] + 180.0) % 360.0 - 180.0
+        steer = self._steered(change)
+        self._returning = steer is not None
+        return y if steer is None else steer
+
+    def _steered(self, change: FloatArray) -> FloatArray | None:
+        """``recover``: the normalized command that makes the physical ``change`` of the
+        inputs in ``RECOVER_CYCLES`` cycles, its largest channel at most
+        ``RECOVER_SPEED``; ``None`` when no command moves the readings that way."""
         command = (change @ self._steer) / (self._scale * RECOVER_CYCLES)
         peak = float(np.max(np.abs(command)))
-        if not peak > 0.0:  # no command moves the readings that way
-            self._returning = False
+        if not peak > 0.0:
+            return None
+        out: FloatArray = command * min(1.0, RECOVER_SPEED / peak)
+        return out
+
+    def _closed(self, category: int, now: FloatArray, y: FloatArray) -> FloatArray:
+        """``recover``: ``y``, or, once the run has been in the goal category outside
+        its tolerance without coming closer for ``CLOSE_CYCLES``, the command onto the
+        goal (``now``: where the robot is, physical units)."""
+        if category not in self._stop_set:
+            self._goal_cycles = 0
+            self._nearest = np.inf
+            self._closing = False
             return y
-        self._returning = True
-        return command * min(1.0, RECOVER_SPEED / peak)
+        change = np.zeros(len(self._channels))
+        error = 0.0
+        for i, spec, goal, tol in self._brake_slots:
+            change[i] = -spec.error(now[i], goal)
+            error = max(error, abs(change[i]) / tol) if tol > 0.0 else error
+        if not self._closing:
+            if error < self._nearest - CLOSE_PROGRESS:
+                self._nearest = error
+                self._goal_cycles = 0
+            else:
+                self._goal_cycles += 1
+            self._closing = self._goal_cycles >= CLOSE_CYCLES
+            if not self._closing:
+                return y
+        steer = self._steered(change)
+        return y if steer is None else steer
 
     def _brake_reset(self) -> None:
         """Forget the braking state; index the goal channels the model reads."""
@@ -454,6 +520,14 @@ class SimplePolicy(GoalTracking, RateLimited):
         warning says so.
         """
         missing = [c for c in REST_CHANNELS if c not in channels]
+        # ``recover`` without velocity readings: a run may reach its goal at speed, where
+        # the filtered readings trail the robot; the stop rule then judges where it is
+        self._lead = (
+            self._recover
+            and bool(missing)
+            and self._command_rates is not None
+            and self._lead_filter is not None
+        )
         if not self._at_rest or not missing:
             return
         self._at_rest = False
@@ -492,6 +566,19 @@ class SimplePolicy(GoalTracking, RateLimited):
                 return False
         return closing
 
+    def _now(self, x: FloatArray) -> FloatArray:
+        """Where the robot is, physical units, from this cycle's filtered readings ``x``
+        (normalized): the readings themselves, or, with ``recover`` on a robot without
+        velocity readings (``bind``), moved on by how far the filter makes them trail
+        the robot: the change the commands sent so far made to the inputs
+        (``command_rates_``), less that change filtered as the readings are. Called once
+        a cycle (it counts the last command)."""
+        now: FloatArray = (x + 1.0) / self._gain + self._lo
+        if self._lead and self._command_rates is not None and self._lead_filter is not None:
+            self._moved = self._moved + self._last @ self._command_rates
+            now = now + self._moved - self._lead_filter.step(self._moved)
+        return now
+
     def _decide(self, reading: Mapping[str, float]) -> StepOutput:
         x = self._pipe.step(np.array([reading[c] for c in self._channels], dtype=np.float64))
         self._x = x
@@ -502,9 +589,9 @@ class SimplePolicy(GoalTracking, RateLimited):
             self._prim_live.update(x)
         if category != self._reachable_from:
             retarget(self, self._hmm, category, may_raise=not self._started)
+        now = self._now(x)
         if category in self._stop_set:
-            filtered = (x + 1.0) / self._gain + self._lo
-            values = dict(zip(self._channels, filtered.tolist(), strict=True))
+            values = dict(zip(self._channels, now.tolist(), strict=True))
             if within_tolerance(values, self.goal, self._tolerance, self.channel_specs) and (
                 not self._at_rest or _at_rest(reading)
             ):
@@ -527,7 +614,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._started = True
         y = self._generator.step(self._features.row(), state)
         if self._recover:
-            y = self._returned(x, y)
+            y = self._closed(category, now, self._returned(x, y))
         if self._held is not None:  # commands its demonstrations never moved stay at rest
             y = np.where(self._held, self._rest_command / self._scale, y)
         y = self._features.commit(y)
