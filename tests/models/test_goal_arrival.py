@@ -70,10 +70,15 @@ def _policy(model: SBLM, channels: tuple[str, ...] = ("x", "y"), recover: bool =
     return policy
 
 
-def test_the_lead_is_on_with_recover_where_the_robot_cannot_show_rest(easing: SBLM) -> None:
-    assert _policy(easing)._lead
-    assert not _policy(easing, ("x", "y", "linear_velocity", "angular_velocity"))._lead
-    assert not _policy(easing, recover=False)._lead  # the default preset: as before
+def test_the_arrival_is_on_with_recover_where_the_robot_cannot_show_rest(easing: SBLM) -> None:
+    assert _policy(easing)._lead and _policy(easing)._arrive
+    velocities = _policy(easing, ("x", "y", "linear_velocity", "angular_velocity"))
+    assert not velocities._lead and not velocities._arrive  # its stop waits for rest
+    plain = _policy(easing, recover=False)  # the default preset: as before
+    assert not plain._lead and not plain._arrive
+    idle = np.zeros(2)
+    for _ in range(3 * policy_module.CLOSE_CYCLES):  # never steers
+        assert plain._closed(plain.goal_category, np.array([2.0, 0.5]), idle) is idle
 
 
 def test_the_robot_is_judged_where_it_is_not_where_the_filter_puts_it(easing: SBLM) -> None:

@@ -35,14 +35,14 @@ RECOVER_ENTER = 2.0
 #: grid of starts, steering at RECOVER_SPEED: 19 of 36 reached with 1, 23 with 0.5, 18
 #: with 0.25).
 RECOVER_EXIT = 0.5
-#: ``recover``: a run in its goal category, outside the goal's tolerance, that has not
-#: come closer to the goal (by ``CLOSE_PROGRESS`` of the tolerance) for this many cycles
-#: is steered onto the goal itself, at RECOVER_SPEED, closing in RECOVER_CYCLES, until
-#: its run ends or it leaves the goal category. The generators learned to rest at the
-#: goal, not to find it from a unit or two off: LASA runs came to rest there (LShape,
-#: Line) or circled it (CShape's held-out starts, 1-2.5 units off for hundreds of
-#: cycles). A run that slows down into its goal comes closer every cycle and is left
-#: alone.
+#: ``recover``, on a robot without velocity readings: a run in its goal category, outside
+#: the goal's tolerance, that has not come closer to the goal (by ``CLOSE_PROGRESS`` of
+#: the tolerance) for this many cycles is steered onto the goal itself, at RECOVER_SPEED,
+#: closing in RECOVER_CYCLES, until its run ends or it leaves the goal category. The
+#: generators learned to rest at the goal, not to find it from a unit or two off: LASA
+#: runs came to rest there (LShape, Line) or circled it (CShape's held-out starts, 1-2.5
+#: units off for hundreds of cycles). A run that slows down into its goal comes closer
+#: every cycle and is left alone.
 CLOSE_CYCLES = 8
 #: ... closer meaning: its largest goal error, in tolerances, below the least so far by
 #: this much.
@@ -340,6 +340,9 @@ class SimplePolicy(GoalTracking, RateLimited):
         #: rest): the inputs' change the sent commands made (``command_rates_``), less that
         #: change filtered by the readings' filter, is how far the readings trail the robot
         self._lead = False
+        #: ``recover`` on a robot without velocity readings: a run that stays in its goal
+        #: category without coming closer is steered onto the goal (set by ``bind``)
+        self._arrive = False
         self._lead_filter = (
             LowPassFilter(filters[0].cutoff_hz, filters[0].fs).online() if filters else None
         )
@@ -411,10 +414,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         return out
 
     def _closed(self, category: int, now: FloatArray, y: FloatArray) -> FloatArray:
-        """``recover``: ``y``, or, once the run has been in the goal category outside
-        its tolerance without coming closer for ``CLOSE_CYCLES``, the command onto the
-        goal (``now``: where the robot is, physical units)."""
-        if category not in self._stop_set:
+        """``recover`` on a robot without velocity readings (``bind``): ``y``, or, once the
+        run has been in the goal category outside its tolerance without coming closer for
+        ``CLOSE_CYCLES``, the command onto the goal (``now``: where the robot is)."""
+        if not self._arrive or category not in self._stop_set:
             self._goal_cycles = 0
             self._nearest = np.inf
             self._closing = False
@@ -521,12 +524,11 @@ class SimplePolicy(GoalTracking, RateLimited):
         """
         missing = [c for c in REST_CHANNELS if c not in channels]
         # ``recover`` without velocity readings: a run may reach its goal at speed, where
-        # the filtered readings trail the robot; the stop rule then judges where it is
+        # the filtered readings trail the robot; the stop rule then judges where it is, and
+        # a run that stays off its goal is steered onto it (the stop cannot wait for rest)
+        self._arrive = self._recover and bool(missing)
         self._lead = (
-            self._recover
-            and bool(missing)
-            and self._command_rates is not None
-            and self._lead_filter is not None
+            self._arrive and self._command_rates is not None and self._lead_filter is not None
         )
         if not self._at_rest or not missing:
             return
