@@ -37,6 +37,15 @@ FloatArray = NDArray[np.float64]
 EXACT_BAND: Final[float] = 1e-6
 
 
+def clipped_mismatch(s: FloatArray, wts: FloatArray, out: FloatArray | None = None) -> FloatArray:
+    """``r = Σ_g w_g min(1, sqrt(max(S_g, 0)))`` of each row of expanded ``S`` (``s`` is
+    overwritten; ``out``: where ``r`` goes)."""
+    np.maximum(s, 0.0, out=s)
+    np.sqrt(s, out=s)
+    np.minimum(s, 1.0, out=s)
+    return np.dot(s, wts, out=out)
+
+
 def aligned_zeros(shape: int | tuple[int, ...], align: int = 64) -> FloatArray:
     """Zero float64 array whose data start on an ``align``-byte boundary."""
     shp = (shape,) if isinstance(shape, int) else tuple(shape)
@@ -212,14 +221,11 @@ class Engine:
             self._alloc(capacity)
         # what ``add`` does row by row, in bulk where that is bit for bit the same: the
         # differences are elementwise; the norms keep add's per-row product
-        f, g = self.F, self.NG
         z = self.zaug[:k]
-        z[:, :f] = features(self.layout, protos[:, : self.layout.n_raw])
+        z[:, : self.F] = features(self.layout, protos[:, : self.layout.n_raw])
         z[:, -1] = -0.5
-        tmp, gs = self.tmp, self.gs
         for row in z:
-            np.multiply(row[:f], row[:f], out=tmp)
-            np.dot(tmp, gs, out=row[f : f + g])
+            self._set_norms(row)
         self.counts = [int(c) for c in counts]
         self.K = k
 
@@ -325,10 +331,7 @@ def fit_episode(
             np.multiply(gm2, pt_col, out=top)
             np.dot(pt, top, out=pn2)
             np.dot(z, paug, out=s)
-            np.maximum(s, 0.0, out=s)
-            np.sqrt(s, out=s)
-            np.minimum(s, 1.0, out=s)
-            np.dot(s, wts, out=v)
+            clipped_mismatch(s, wts, out=v)
             k = int(v.argmin())
             score = 1.0 - float(v[k])
             if score > hi or abs(score - rho) < EXACT_BAND:
@@ -406,6 +409,16 @@ class Predictor:
         if k >= INDEX_MIN_CATEGORIES:
             self.index = PrototypeIndex(self.zaug, self.gs, self.wts)
 
+    def best(self) -> tuple[int, float]:
+        """Category of least mismatch for the current ``pt`` (``paug`` set for it) and
+        that mismatch: every category scored into ``v``, or the index searched."""
+        if self.index is not None:
+            return self.index.search(self.pt, self.paug)
+        np.dot(self.zaug, self.paug, out=self.s)
+        v = clipped_mismatch(self.s, self.wts, out=self.v)
+        k = int(v.argmin())
+        return k, float(v[k])
+
     def exact_score(self, k: int) -> float:
         """Score of category ``k`` for the current ``pt``, directly from the differences."""
         d = self.z[k] - self.pt
@@ -418,11 +431,9 @@ class Predictor:
         """Categorize one episode (features ``(T, F)``) into ``labels``/``scores`` at ``offset``."""
         awt = wt * self.a
         pt, pt_col, omaz = self.pt, self.pt_col, self.omaz_rows
-        top, pn2, paug, gm2, wts = self.top, self.pn2, self.paug, self.gm2, self.wts
-        z, s, v = self.zaug, self.s, self.v
+        top, pn2, gm2, best = self.top, self.pn2, self.gm2, self.best
         rho = self.rho
         hi = 1.0 - EXACT_BAND
-        index = self.index
         k = -1
         for t in range(wt.shape[0]):
             if k < 0:
@@ -431,17 +442,8 @@ class Predictor:
                 np.add(awt[t], omaz[k], out=pt)
             np.multiply(gm2, pt_col, out=top)
             np.dot(pt, top, out=pn2)
-            if index is None:
-                np.dot(z, paug, out=s)
-                np.maximum(s, 0.0, out=s)
-                np.sqrt(s, out=s)
-                np.minimum(s, 1.0, out=s)
-                np.dot(s, wts, out=v)
-                k = int(v.argmin())
-                score = 1.0 - float(v[k])
-            else:
-                k, miss = index.search(pt, paug)
-                score = 1.0 - miss
+            k, miss = best()
+            score = 1.0 - miss
             if score > hi or abs(score - rho) < EXACT_BAND:
                 score = self.exact_score(k)
             elif score < 0.0:

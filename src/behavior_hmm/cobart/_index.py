@@ -29,7 +29,7 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
-from behavior_hmm.cobart._engine import aligned_zeros
+from behavior_hmm.cobart._engine import aligned_zeros, clipped_mismatch
 
 FloatArray = NDArray[np.float64]
 
@@ -104,7 +104,7 @@ class PrototypeIndex:
         a, b = self._bounds[leaf], self._bounds[leaf + 1]
         s = self._s[: b - a]
         np.dot(self.zaug[a:b], paug, out=s)
-        return float(_mismatch(s, self.wts).min())
+        return float(clipped_mismatch(s, self.wts).min())
 
     def search(self, pt: FloatArray, paug: FloatArray) -> tuple[int, float]:
         """Category of least mismatch for processed input ``pt`` and its mismatch.
@@ -129,7 +129,7 @@ class PrototypeIndex:
         rows = np.arange(int(ends[-1]), dtype=np.int64)
         rows += np.repeat(self._starts[cand] - (ends - sizes), sizes)
         self.scored = rows.size
-        v = _mismatch(self.zaug.take(rows, axis=0) @ paug, self.wts)
+        v = clipped_mismatch(self.zaug.take(rows, axis=0) @ paug, self.wts)
         best = float(v.min())
         # the lowest category index among the rows at the least mismatch (argmin's tie rule)
         return int(self.order[rows[v == best]].min()), best
@@ -137,15 +137,7 @@ class PrototypeIndex:
     def mismatches(self, paug: FloatArray, out: FloatArray, s: FloatArray) -> None:
         """Every category's mismatch, in category order, into ``out`` (``s``: (K, G) work)."""
         np.dot(self.zaug, paug, out=s)
-        out[self.order] = _mismatch(s, self.wts)
-
-
-def _mismatch(s: FloatArray, wts: FloatArray) -> FloatArray:
-    """``r = Σ_g w_g min(1, sqrt(max(S_g, 0)))`` per row of expanded ``S`` (``s`` is reused)."""
-    np.maximum(s, 0.0, out=s)
-    np.sqrt(s, out=s)
-    np.minimum(s, 1.0, out=s)
-    return np.dot(s, wts)
+        out[self.order] = clipped_mismatch(s, self.wts)
 
 
 def _partition(points: FloatArray, leaf_size: int) -> list[NDArray[np.int64]]:

@@ -46,8 +46,8 @@ class LiveCategorizer:
         p = pred
         self._hot = (
             self._buf, self._views, self._raw, self._diff, self._wt, self._awt, i, c, p.a,
-            p.omaz_rows, p.pt, p.pt_col, p.gm2, p.top, p.pn2, p.zaug, p.paug, p.s,
-            p.wts, p.v, self.rho, p.exact_score, p.index,
+            p.omaz_rows, p.pt, p.pt_col, p.gm2, p.top, p.pn2, self.rho, p.exact_score,
+            p.best, p.index is not None,
         )  # fmt: skip
         self._stale = False
         self.reset()
@@ -105,8 +105,8 @@ class LiveCategorizer:
         if not all(map(math.isfinite, r.tolist())):
             raise DatasetError("NaN or infinite value in live reading")
         # fmt: off
-        (buf, views, raw, diff, wt, awt, i, c, a, omaz, pt, pt_col, gm2, top, pn2, zaug, paug,
-         sc, wts, v, rho, exact, index) = self._hot
+        (buf, views, raw, diff, wt, awt, i, c, a, omaz, pt, pt_col, gm2, top, pn2, rho, exact,
+         best, indexed) = self._hot
         # fmt: on
         pos = self._pos
         if pos < 0:
@@ -131,18 +131,9 @@ class LiveCategorizer:
             np.add(awt, omaz[k], out=pt)
         np.multiply(gm2, pt_col, out=top)
         np.dot(pt, top, out=pn2)
-        if index is None:
-            np.dot(zaug, paug, out=sc)
-            np.maximum(sc, 0.0, out=sc)
-            np.sqrt(sc, out=sc)
-            np.minimum(sc, 1.0, out=sc)
-            np.dot(sc, wts, out=v)
-            k = int(v.argmin())
-            score = 1.0 - float(v[k])
-        else:
-            k, miss = index.search(pt, paug)
-            score = 1.0 - miss
-            self._stale = True
+        k, miss = best()
+        score = 1.0 - miss
+        self._stale = indexed  # the index scored only the categories that could win
         if score > 1.0 - EXACT_BAND or abs(score - rho) < EXACT_BAND:
             score = exact(k)
         elif score < 0.0:

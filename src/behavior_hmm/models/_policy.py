@@ -329,9 +329,6 @@ class SimplePolicy(GoalTracking, RateLimited):
         if self._recover:
             self._set_recovery(model)
         self._returning = False
-        self._goal_cycles = 0
-        self._nearest = np.inf
-        self._closing = False
         filters = model.pipeline_.filters
         #: cycles the filtered readings trail the robot while it moves steadily
         self._lag = filters[0].lag_samples if filters else 0.0
@@ -346,7 +343,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._lead_filter = (
             LowPassFilter(filters[0].cutoff_hz, filters[0].fs).online() if filters else None
         )
-        self._moved = np.zeros(len(self._channels))
+        self._arrival_reset()
         self._brake_reset()
 
     def reset(self) -> None:
@@ -365,6 +362,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._limit_reset()
         self._brake_reset()
         self._returning = False
+        self._arrival_reset()
+
+    def _arrival_reset(self) -> None:
+        """Forget the goal arrival's state: nothing moved yet, no closing in progress."""
         self._goal_cycles = 0
         self._nearest = np.inf
         self._closing = False
@@ -418,15 +419,14 @@ class SimplePolicy(GoalTracking, RateLimited):
         run has been in the goal category outside its tolerance without coming closer for
         ``CLOSE_CYCLES``, the command onto the goal (``now``: where the robot is)."""
         if not self._arrive or category not in self._stop_set:
-            self._goal_cycles = 0
-            self._nearest = np.inf
-            self._closing = False
+            self._goal_cycles, self._nearest, self._closing = 0, np.inf, False
             return y
         change = np.zeros(len(self._channels))
         error = 0.0
         for i, spec, goal, tol in self._brake_slots:
             change[i] = -spec.error(now[i], goal)
-            error = max(error, abs(change[i]) / tol) if tol > 0.0 else error
+            if tol > 0.0:
+                error = max(error, abs(change[i]) / tol)
         if not self._closing:
             if error < self._nearest - CLOSE_PROGRESS:
                 self._nearest = error
