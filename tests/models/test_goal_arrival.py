@@ -14,13 +14,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from point_mass_testing import stroke
 
 import behavior_hmm.models._policy as policy_module
 from behavior_hmm.data import CONTROL_PERIOD, Dataset
 from behavior_hmm.evaluate._lasa import (
     GOAL,
     LASA_TOLERANCE,
-    command_columns,
     lasa_dataset,
     lasa_env,
     trace_path,
@@ -29,19 +29,6 @@ from behavior_hmm.models import SBLM
 
 # the point mass has no velocity channels: stop_at_rest is off there, and says so
 pytestmark = pytest.mark.filterwarnings("ignore:stop_at_rest is off")
-
-
-def _ease(y0: float, n: int = 150, rest: int = 12) -> dict[str, np.ndarray]:
-    """A smooth stroke from (-40, y0) that slows down into the goal and rests there."""
-    s = np.linspace(0.0, 1.0, n)
-    ease = 3 * s**2 - 2 * s**3
-    x, y = -40.0 * (1 - ease), y0 * (1 - ease)
-    vx = np.r_[np.diff(x) / CONTROL_PERIOD, 0.0]
-    vy = np.r_[np.diff(y) / CONTROL_PERIOD, 0.0]
-    a, b = command_columns()
-    cols = {"x": x, "y": y, a: vx, b: vy}
-    cols = {k: np.r_[v, np.zeros(rest)] for k, v in cols.items()}
-    return {"t": np.arange(n + rest) * CONTROL_PERIOD, **cols}
 
 
 def _fit(strokes: list[dict[str, np.ndarray]]) -> SBLM:
@@ -56,7 +43,7 @@ def _final_distance(trace: Any) -> float:
 
 @pytest.fixture(scope="module")
 def easing() -> SBLM:
-    return _fit([_ease(y0) for y0 in (-4.0, -2.0, 0.0, 2.0, 4.0)])
+    return _fit([stroke(y0) for y0 in (-4.0, -2.0, 0.0, 2.0, 4.0)])
 
 
 def _policy(model: SBLM, channels: tuple[str, ...] = ("x", "y"), recover: bool = True) -> Any:

@@ -14,10 +14,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from point_mass_testing import stroke
 
-from behavior_hmm.data import CONTROL_PERIOD, Dataset
+from behavior_hmm.data import Dataset
 from behavior_hmm.errors import ConfigError, ModelFileError
-from behavior_hmm.evaluate._lasa import GOAL, command_columns, lasa_dataset, lasa_env
+from behavior_hmm.evaluate._lasa import GOAL, lasa_dataset, lasa_env
 from behavior_hmm.models import SBLM
 
 # the point mass has no velocity channels: its stop rule reads the tolerance only
@@ -27,20 +28,8 @@ FAR = {"x": -30.0, "y": 40.0}
 DEMONSTRATED = {"x": -40.0, "y": 0.0}
 
 
-def _stroke(y0: float, n: int = 150, rest: int = 12) -> dict[str, np.ndarray]:
-    s = np.linspace(0.0, 1.0, n)
-    ease = 3 * s**2 - 2 * s**3
-    x, y = -40.0 * (1 - ease), y0 * (1 - ease)
-    vx = np.r_[np.diff(x) / CONTROL_PERIOD, 0.0]
-    vy = np.r_[np.diff(y) / CONTROL_PERIOD, 0.0]
-    a, b = command_columns()
-    cols = {"x": x, "y": y, a: vx, b: vy}
-    cols = {k: np.r_[v, np.zeros(rest)] for k, v in cols.items()}
-    return {"t": np.arange(n + rest) * CONTROL_PERIOD, **cols}
-
-
 def _data(offsets: tuple[float, ...] = (-4.0, -2.0, 0.0, 2.0, 4.0)) -> Dataset:
-    return lasa_dataset([_stroke(y0) for y0 in offsets], "stroke")
+    return lasa_dataset([stroke(y0) for y0 in offsets], "stroke")
 
 
 @pytest.fixture(scope="module")
