@@ -439,3 +439,45 @@ def test_sblm_and_cblm_share_one_fit_sequence() -> None:
     for kind in (SBLM, CBLM):
         for step in ("_fit_setup", "_fit_rows", "_fit_learn", "_fit_finish"):
             assert getattr(kind, step) is not getattr(LearnedBehavior, step), (kind, step)
+
+
+def _plan_insists_on(policy: Any, monkeypatch: pytest.MonkeyPatch, component: int) -> None:
+    """Make every cycle's plan ask for ``component`` first, toward the complex goal."""
+    from types import SimpleNamespace
+
+    exit_category = next(iter(policy._goal_set))
+    segment = SimpleNamespace(state=component, exit_observation=exit_category)
+    monkeypatch.setattr(policy, "_open_segments", lambda category: [segment])
+
+
+@pytest.mark.parametrize("skip", [True, False])
+def test_a_running_component_is_not_replaced_by_one_whose_goal_already_holds(
+    cblm: CBLM, monkeypatch: pytest.MonkeyPatch, skip: bool
+) -> None:
+    # Under sensor noise the plan can ask for turn while an approach on its bearing runs
+    # (the categories flicker where the demonstrations switched). With skip_reached the
+    # approach goes on while turn's goal (angle 0 +- 3 deg) holds, and turn replaces it
+    # once the bearing is off; without it (the thesis) turn replaces it after the debounce.
+    monkeypatch.setattr(cblm, "skip_reached", skip)
+    turn, approach = cblm.names_.index("turn"), cblm.names_.index("approach")
+    policy = cblm.policy(None)
+    reading = {"distance": 0.6, "angle": 1.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
+    for _ in range(5):
+        policy.step(reading)
+    assert policy._active == approach
+    _plan_insists_on(policy, monkeypatch, turn)
+    for _ in range(4 * cblm.switch_cycles):
+        policy.step(reading)
+    assert policy._active == (approach if skip else turn)
+    if skip:
+        off = {**reading, "angle": 10.0}  # turn's goal no longer holds: it replaces approach
+        for _ in range(60):
+            policy.step(off)
+        assert policy._active == turn
+
+
+def test_the_thesis_preset_replaces_a_running_component_whatever_the_goal() -> None:
+    from behavior_hmm.models._presets import preset_params
+
+    assert preset_params("thesis", "CBLM")["skip_reached"] is False
+    assert preset_params("default", "CBLM")["skip_reached"] is True

@@ -96,6 +96,13 @@ class CBLM(LearnedBehavior):
     switch_cycles
         Control cycles the plan must ask for another component before a running one is
         replaced (8 = 128 ms; thesis: 1, switch at once).
+    skip_reached
+        The plan's next component does not replace the running one while the goal it
+        would be run toward already holds: it would hand back at once, and the robot
+        would stop for nothing. Under sensor noise the observation category flickers
+        across the border where the demonstrations switched, and without this rule an
+        approach already on its bearing was replaced by a turn to the same bearing and
+        back, pausing at each switch (thesis: False, the plan's component runs).
     start_alternatives
         Runner-up categories of the start window tried when the best match has no
         path to the goal (thesis: 0, the goal is unreachable).
@@ -197,6 +204,7 @@ class CBLM(LearnedBehavior):
         repair: bool = True,
         preempt_uncovered: bool = True,
         switch_cycles: int = 8,
+        skip_reached: bool = True,
         start_alternatives: int = 5,
         command_rate_limit: float = 1.5,
         settle_cycles: int = 64,
@@ -219,6 +227,7 @@ class CBLM(LearnedBehavior):
         self.repair = repair
         self.preempt_uncovered = preempt_uncovered
         self.switch_cycles = switch_cycles
+        self.skip_reached = skip_reached
         self.start_alternatives = start_alternatives
         self.command_rate_limit = command_rate_limit
         self.settle_cycles = settle_cycles
@@ -239,6 +248,7 @@ class CBLM(LearnedBehavior):
         for name in (
             "repair",
             "preempt_uncovered",
+            "skip_reached",
             "forward_goals",
             "handover_pause",
             "reach_check",

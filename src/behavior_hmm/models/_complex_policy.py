@@ -336,6 +336,22 @@ def undone(
     ]
 
 
+def already_reached(
+    sub_goal: Mapping[str, float],
+    values: Mapping[str, float],
+    specs: Mapping[str, ChannelSpec],
+) -> bool:
+    """Skip rule: whether the goal a planned component would run toward already holds.
+
+    Such a component would hand back the cycle it starts; replacing the running one
+    with it only stops the robot (``skip_reached``). Under sensor noise the plan can ask
+    for it where the filtered readings cross the border of the categories the
+    demonstrations switched at: an approach on its bearing, replaced by a turn to that
+    bearing. An empty goal never counts as reached.
+    """
+    return bool(sub_goal) and within_tolerance(values, sub_goal, specs=specs)
+
+
 def settles_in_goal(
     child: Any,
     goal: Mapping[str, float],
@@ -400,7 +416,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
     (``_start``, ``_carry_on``, ``_settle``, ``_hand_back``, ``_skip``, ``_wait``,
     ``_reopen``, and the stop in :meth:`step`). The CBLM's runtime additions are rules
     that can be tested alone: :class:`Debounce`, :func:`preempting_component`,
-    :func:`repair_candidates`, :func:`undone`, :func:`settles_in_goal`,
+    :func:`repair_candidates`, :func:`undone`, :func:`already_reached`, :func:`settles_in_goal`,
     :func:`on_the_way`, :func:`reach_fix` and :func:`not_begun`.
 
     Parameters
@@ -437,6 +453,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._may_repair = bool(model.repair)
         self._may_preempt = bool(model.preempt_uncovered)
         self._debounce = Debounce(int(model.switch_cycles))
+        self._skip_reached = bool(getattr(model, "skip_reached", False))
         self._alternatives = int(model.start_alternatives)
         self._settle_cycles = int(getattr(model, "settle_cycles", 0))
         self._forward = bool(getattr(model, "forward_goals", False))
@@ -646,22 +663,36 @@ class ComplexPolicy(GoalTracking, RateLimited):
             out = self._out_of_reach(segment.state, running, values, reading, category, novel)
             if out is not None:
                 return out
-        if running and segment.state != self._active and self._debounce.holds(segment.state):
+        replaces = running and segment.state != self._active
+        if replaces and self._debounce.holds(segment.state):
             return self._carry_on(reading, category, novel)
+        sub_goal = None
+        if replaces and self._skip_reached:
+            sub_goal = self._segment_goal(segment, values)
+            if already_reached(sub_goal, values, self.channel_specs):
+                # it would hand back at once: the running one goes on, and the plan has
+                # to insist afresh once that goal no longer holds
+                self._debounce.clear()
+                return self._carry_on(reading, category, novel)
         self._debounce.clear()
         self._committed = False
         if segment.state == self._active and not self._redo:  # carry on (an intermediate
             return self._carry_on(reading, category, novel)  # goal: a new one)
         renew, self._redo = self._redo, False
+        if sub_goal is None:
+            sub_goal = self._segment_goal(segment, values)
+        return self._start(segment.state, sub_goal, reading, category, novel, renew)
+
+    def _segment_goal(self, segment: Any, values: Mapping[str, float]) -> dict[str, float]:
+        """The goal a plan segment's component runs toward: its exit observation's
+        (the complex goal's at the last segment), never sent back (:meth:`_on_the_way`)."""
         sub_goal = self.model.component_goal(
             segment.state,
             segment.exit_observation,
             self.goal,
             final=segment.exit_observation in self._goal_set,
         )
-        return self._start(
-            segment.state, self._on_the_way(sub_goal, values), reading, category, novel, renew
-        )
+        return self._on_the_way(sub_goal, values)
 
     def _preempt(
         self,

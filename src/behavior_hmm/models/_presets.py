@@ -176,6 +176,11 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "a running component is replaced only after the plan insists for 8 cycles",
     ),
     Departure(
+        "skip_reached",
+        {"CBLM": {"skip_reached": False}},
+        "a running component is not replaced by one whose goal already holds",
+    ),
+    Departure(
         "settle_cycles",
         {"CBLM": {"settle_cycles": 0}},
         "at the goal, a component heading for a goal inside it finishes at rest (≤ 64 cycles)",
