@@ -481,3 +481,37 @@ def test_the_thesis_preset_replaces_a_running_component_whatever_the_goal() -> N
 
     assert preset_params("thesis", "CBLM")["skip_reached"] is False
     assert preset_params("default", "CBLM")["skip_reached"] is True
+
+
+def test_a_component_reopened_after_it_finished_starts_afresh(
+    cblm: CBLM, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A turn that hands back where the complex level still reads its goal missed (its
+    # own stop rule judges its own readings: 3.08 deg off after a push, MuJoCo) is
+    # reopened at once. Its controller has ended; carried on as it was, it reported its
+    # goal again every cycle and the robot stood 3.25 deg off until the step limit. It
+    # must start afresh (a renewed controller), whether or not the plan names it.
+    turn = cblm.names_.index("turn")
+    policy = cblm.policy(None)
+    _plan_insists_on(policy, monkeypatch, turn)
+    off = {"distance": 0.3, "angle": 10.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
+    policy.step(off)
+    assert policy._active == turn
+    child = policy._children[turn]
+    real_step = child.step
+    monkeypatch.setattr(child, "step", lambda reading: real_step(reading)._replace(done=True))
+    monkeypatch.setattr(policy, "_open_segments", lambda category: [])  # nothing planned
+    policy.step(off)
+    assert turn in policy._finished  # it handed back
+    monkeypatch.undo()  # its own step again, and no plan
+    monkeypatch.setattr(policy, "_open_segments", lambda category: [])
+    renewed: list[dict[str, float]] = []
+    real_renew = child.renew
+    monkeypatch.setattr(
+        child, "renew", lambda goal, tol=1.0: (renewed.append(goal), real_renew(goal, tol))
+    )
+    for _ in range(cblm.handover_cycles_ + 2):  # the handover pause, then the reopening
+        policy.step(off)
+    assert renewed == [{"angle": 0.0}]
+    assert policy._active == turn and turn not in policy._finished
+    assert policy.phase.name == "RUNNING"

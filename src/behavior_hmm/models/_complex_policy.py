@@ -803,7 +803,17 @@ class ComplexPolicy(GoalTracking, RateLimited):
         return self._run_child(reading, category, novel, changed=False)
 
     def _carry_on(self, reading: Mapping[str, float], category: int, novel: bool) -> StepOutput:
-        """RUNNING: the current component goes on for one more cycle."""
+        """RUNNING: the current component goes on for one more cycle.
+
+        One whose goal was undone after it finished (:meth:`_reopen`) starts afresh
+        toward that goal: its controller has ended and would report it reached at once
+        (the component handed back and was reopened every cycle, a robot at rest 3.25 deg
+        off until the step limit).
+        """
+        if self._redo:
+            self._redo = False
+            goal = dict(self._child.goal)
+            return self._start(self._active, goal, reading, category, novel, renew=True)
         self._phase = Phase.RUNNING
         return self._run_child(reading, category, novel, changed=False)
 
