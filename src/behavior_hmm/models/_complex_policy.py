@@ -416,8 +416,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
     (``_start``, ``_carry_on``, ``_settle``, ``_hand_back``, ``_skip``, ``_wait``,
     ``_reopen``, and the stop in :meth:`step`). The CBLM's runtime additions are rules
     that can be tested alone: :class:`Debounce`, :func:`preempting_component`,
-    :func:`repair_candidates`, :func:`undone`, :func:`already_reached`, :func:`settles_in_goal`,
-    :func:`on_the_way`, :func:`reach_fix` and :func:`not_begun`.
+    :func:`repair_candidates`, :func:`undone`, :func:`already_reached`,
+    :func:`settles_in_goal`, :func:`on_the_way`, :func:`reach_fix` and :func:`not_begun`.
 
     Parameters
     ----------
@@ -821,7 +821,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         """A finished component's goal is undone: it may run again.
 
         The last one to run has stopped its controller: it runs again (RUNNING), and
-        starts afresh when the plan next chooses it.
+        starts afresh the next cycle it runs: toward the plan's goal for it when the plan
+        chooses it, toward its own goal when it is carried on (:meth:`_carry_on`).
         """
         del self._finished[comp]
         if comp == self._active:
