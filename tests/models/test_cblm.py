@@ -515,3 +515,53 @@ def test_a_component_reopened_after_it_finished_starts_afresh(
     assert renewed == [{"angle": 0.0}]
     assert policy._active == turn and turn not in policy._finished
     assert policy.phase.name == "RUNNING"
+
+
+def _ends_after(policy: Any, readings: list[dict[str, float]]) -> int | None:
+    """The cycle a run fed ``readings`` ends (None: it does not)."""
+    policy.reset()
+    for i, reading in enumerate(readings):
+        if policy.step(reading).done:
+            return i
+    return None
+
+
+def test_a_noisy_complex_run_ends_where_the_mean_of_its_readings_puts_it(
+    cblm: CBLM, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Noise 0.02 (7.2 deg, 0.024 m a reading) on a robot at rest 5 deg off the bearing at
+    # the goal's distance: the filtered bearing falls inside 3 deg about one cycle in five,
+    # and a component that finishes there used to end the run. The CBLM confirms its goal
+    # on the mean of the raw readings at rest (its components do not: it does, once).
+    from behavior_hmm.models import _confirm
+
+    policy = cblm.policy(None)
+    assert not any(child.confirm_goal for child in policy._children.values())
+    rng = np.random.default_rng(5)
+    ended = {True: 0, False: 0}
+    for _ in range(10):
+        readings = [
+            {
+                "distance": 0.004 + float(rng.normal(0.0, 0.024)),
+                "angle": 5.0 + float(rng.normal(0.0, 7.2)),
+                "linear_velocity": 0.0,
+                "angular_velocity": 0.0,
+            }
+            for _ in range(150)
+        ]
+        for confirm in (True, False):
+            quiet = _confirm.QUIET if confirm else np.inf
+            with monkeypatch.context() as patch:
+                patch.setattr(_confirm, "QUIET", quiet)
+                ended[confirm] += _ends_after(cblm.policy(None), readings) is not None
+    assert ended[False] >= 6  # 7 of 10 with these draws
+    assert ended[True] <= 2  # 1
+
+
+def test_a_complex_run_confirms_its_goal_only_if_its_components_stop_at_rest(
+    cblm: CBLM, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert cblm.policy(None)._confirms
+    for component in cblm.components_:  # the thesis preset's components
+        monkeypatch.setattr(component, "stop_at_rest", False)
+    assert not cblm.policy(None)._confirms

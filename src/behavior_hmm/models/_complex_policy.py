@@ -11,11 +11,14 @@ from numpy.typing import NDArray
 
 from behavior_hmm.data._channels import ChannelSpec, within_tolerance
 from behavior_hmm.errors import UnreachableGoalError
+from behavior_hmm.models._confirm import GoalConfirmation
 from behavior_hmm.models._policy import (
+    REST_CHANNELS,
     GoalTracking,
     RateLimited,
     make_policy,
     read_channels,
+    readings_at_rest,
     retarget,
 )
 from behavior_hmm.runtime import ordered_channels
@@ -151,6 +154,15 @@ def preempting_component(
                 continue
             return fix
     return None
+
+
+def stops_at_rest(model: Any) -> bool:
+    """Whether a model's runs stop at rest: an SBLM's ``stop_at_rest``, a CBLM's when
+    any of its components' runs do."""
+    components = getattr(model, "components_", None)
+    if components is not None:
+        return any(stops_at_rest(component) for component in components)
+    return bool(getattr(model, "stop_at_rest", False))
 
 
 def repair_candidates(
@@ -442,6 +454,13 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self.name = name
         self._tolerance = float(tolerance)
         self._set_goal(model, goal)
+        #: the goal confirmed on the raw readings at rest when they are noisy, if the
+        #: readings can show rest (``bind``)
+        self._confirmation = GoalConfirmation(self.channel_specs)
+        self._rest_readable = True
+        #: confirming is part of stopping at rest (``SBLM.stop_at_rest``): on when the
+        #: components stop at rest (the thesis preset's do not)
+        self._confirms = stops_at_rest(model)
         self._channels = tuple(model.inputs_)
         self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
@@ -474,6 +493,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
             if hasattr(child, "start_confirm_cycles"):
                 # the complex level checks its own goal before it runs a component
                 child.start_confirm_cycles = 0
+            if hasattr(child, "confirm_goal"):  # and confirms its own goal at the end
+                child.confirm_goal = False
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
         # per command channel: the step limit in each channel's own scale (wheels: equal)
@@ -521,6 +542,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._beside_from = 0.0  # the active one's goal error when it started
         self._wanted = -1  # the plan's component, to run beside the one pre-empting it
         self._now: Mapping[str, float] = {}  # this cycle's filtered readings
+        self._reading: Mapping[str, float] = {}  # this cycle's raw readings
+        self._confirmation.reset()
         self._limit_reset()
 
     @property
@@ -560,6 +583,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
 
     def bind(self, channels: Sequence[str]) -> None:
         """Fit every component's policy to a robot's ``channels`` (see SimplePolicy.bind)."""
+        #: the readings can show rest: a goal is confirmed on noisy readings at rest
+        self._rest_readable = all(c in channels for c in REST_CHANNELS)
         names = list(self._channels)
         for child in self._children.values():
             if hasattr(child, "bind"):
@@ -592,7 +617,13 @@ class ComplexPolicy(GoalTracking, RateLimited):
             self._unable.clear()  # a component unable to reach the goal may be able now
         values = self._values(reading, x)
         self._now = values
-        at_goal = within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
+        self._reading = reading
+        self._confirmation.observe(reading, self.goal)
+        at_goal = not self._confirmation.holding and within_tolerance(
+            values, self.goal, self._tolerance, self.channel_specs
+        )
+        if not at_goal:
+            self._confirmation.abandon()
         if self._phase is Phase.PAUSED and not at_goal:
             return self._wait(category, novel)
         if at_goal and self._settles_in_goal():
@@ -895,8 +926,23 @@ class ComplexPolicy(GoalTracking, RateLimited):
     # -- outputs ---------------------------------------------------------------------------
 
     def _done(self, category: int, novel: bool) -> StepOutput:
-        """The step that ends the run at the goal: the rest command, done."""
+        """The step that ends the run at the goal: the rest command, done.
+
+        On noisy readings the goal is first confirmed on the raw readings at rest
+        (:class:`GoalConfirmation`): the robot holds still meanwhile, and a refuted goal
+        is repaired from where the readings' mean puts the robot (:meth:`_repair`).
+        """
         label = self._label or self.name
+        confirming = self._confirms and self._rest_readable
+        if confirming and self._confirmation.needed(self.goal, self._tolerance):
+            if not readings_at_rest(self._reading):  # come to rest first
+                return self._idle(category, novel)
+            verdict = self._confirmation.confirm(self._reading, self.goal, self._tolerance)
+            if verdict is None:
+                return self._idle(category, novel)
+            if not verdict:
+                estimate = {**self._now, **self._confirmation.estimate}
+                return self._repair(estimate, self._reading, category, novel)
         return StepOutput(self._rest_command, category, novel, self._active, label, False, True)
 
     def _idle(self, category: int, novel: bool) -> StepOutput:

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from behavior_hmm.data._channels import TOLERANCES, ChannelSpec, within_tolerance
 from behavior_hmm.data._filter import LowPassFilter
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
+from behavior_hmm.models._confirm import GoalConfirmation
 from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
 from behavior_hmm.runtime._policy import StepOutput
 
@@ -288,6 +289,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         self.start_confirm_cycles = START_CONFIRM_CYCLES if self._at_rest else 0
         self._confirmed = 0
         self._tolerance = float(tolerance)
+        #: the goal confirmed on the raw readings at rest when they are noisy (off: a
+        #: complex behavior confirms its own goal, not its components')
+        self.confirm_goal = True
+        self._confirmation = GoalConfirmation(self.channel_specs)
         self._channels = tuple(model.inputs_)
         self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
@@ -353,6 +358,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prim_live.reset()
         self._started = False
         self._confirmed = 0
+        self._confirmation.reset()
         self._state = -1
         self._last_obs = -1
         self._alpha = self._log_pi.copy()
@@ -508,9 +514,15 @@ class SimplePolicy(GoalTracking, RateLimited):
         settled = self._brake_hold >= BRAKE_SETTLE_CYCLES and still
         if settled and within_tolerance(values, self.goal, self._tolerance, self.channel_specs):
             # braked to rest inside the goal's tolerance: done, whatever the category
-            # (with stop_at_rest only once the readings show rest: slow wheels coast on)
+            # (with stop_at_rest only once the readings show rest: slow wheels coast on),
+            # once the raw readings confirm it when they are noisy
+            verdict = self._confirmed_goal()
+            if verdict is None:  # hold still while the readings are averaged
+                return out._replace(command=u)
             self._braking = False
-            return out._replace(command=u, done=True, plan_changed=False)
+            if verdict:
+                return out._replace(command=u, done=True, plan_changed=False)
+            return self._limited(out)
         # resume once at rest short of the goal (slow wheels: at most 4x as long)
         self._braking = self._brake_hold < (BRAKE_HOLD_CYCLES if still else 4 * BRAKE_HOLD_CYCLES)
         return out._replace(command=u)
@@ -544,7 +556,7 @@ class SimplePolicy(GoalTracking, RateLimited):
 
     def _still(self) -> bool:
         """At rest by the readings when the stop rule waits for rest (``stop_at_rest``)."""
-        return not self._at_rest or _at_rest(self._reading)
+        return not self._at_rest or readings_at_rest(self._reading)
 
     def _rest_at_goal(self, now: FloatArray, rates: FloatArray, ramp: float) -> bool:
         """Whether a ramp to rest over ``ramp`` cycles, started now, ends at or past the goal.
@@ -592,19 +604,25 @@ class SimplePolicy(GoalTracking, RateLimited):
         if category != self._reachable_from:
             retarget(self, self._hmm, category, may_raise=not self._started)
         now = self._now(x)
-        if category in self._stop_set:
+        self._confirmation.observe(reading, self.goal)
+        if category in self._stop_set and not self._confirmation.holding:
             values = dict(zip(self._channels, now.tolist(), strict=True))
             if within_tolerance(values, self.goal, self._tolerance, self.channel_specs) and (
-                not self._at_rest or _at_rest(reading)
+                not self._at_rest or readings_at_rest(reading)
             ):
+                rest = self._rest_command
                 if not self._started and self._confirmed < self.start_confirm_cycles:
                     # not moved yet: hold still while the (filtered) readings confirm it
                     self._confirmed += 1
-                    rest = self._rest_command
                     return StepOutput(rest, category, novel, -1, self.name, False, False)
-                self._started = True
-                rest = self._rest_command
-                return StepOutput(rest, category, novel, self._state, self.name, False, True)
+                verdict = self._confirmed_goal()
+                if verdict is None:  # noisy readings: hold still while they are averaged
+                    return StepOutput(rest, category, novel, self._state, self.name, False, False)
+                if verdict:
+                    self._started = True
+                    return StepOutput(rest, category, novel, self._state, self.name, False, True)
+            else:
+                self._confirmation.abandon()
         try:
             state = self._decode(category)
         except UnreachableGoalError:
@@ -621,6 +639,16 @@ class SimplePolicy(GoalTracking, RateLimited):
             y = np.where(self._held, self._rest_command / self._scale, y)
         y = self._features.commit(y)
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
+
+    def _confirmed_goal(self) -> bool | None:
+        """The goal the stop rule found, confirmed on the raw readings at rest when they
+        are noisy (:class:`GoalConfirmation`): True, False (refuted: the generators go on),
+        or None (hold still, not decided yet); True at once on quiet readings."""
+        if not (self.confirm_goal and self._at_rest):  # (a robot that cannot show rest
+            return True  # stops at speed: nothing to average)
+        if not self._confirmation.needed(self.goal, self._tolerance):
+            return True
+        return self._confirmation.confirm(self._reading, self.goal, self._tolerance)
 
     def _decode(self, category: int) -> int:
         """Active primitive for the current observation category (see ``state_decoding``)."""
@@ -666,7 +694,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         return int(np.argmin(miss))
 
 
-def _at_rest(reading: Mapping[str, float]) -> bool:
+def readings_at_rest(reading: Mapping[str, float]) -> bool:
     """Whether a reading shows the robot (nearly) still: |yaw rate|, |speed| within tolerance."""
     return all(abs(reading[c]) <= TOLERANCES[c] for c in REST_CHANNELS)
 

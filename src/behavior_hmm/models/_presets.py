@@ -107,7 +107,7 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
     Departure(
         "stop_at_rest",
         {"SBLM": {"stop_at_rest": False}},
-        "the stop rule also waits until the robot is at rest",
+        "the stop rule also waits until the robot is at rest; noisy readings confirm a goal there",
     ),
     Departure(
         "batch_size",
