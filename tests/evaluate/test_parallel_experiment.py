@@ -40,8 +40,25 @@ def test_the_parallel_model_arrives_sooner_than_the_sequential_one(tmp_path: Pat
     assert rows["one_at_a_time"]["time_total_s"] > rows["parallel"]["time_total_s"]
     assert rows["parallel"]["success_rate_mean"] > rows["one_at_a_time"]["success_rate_mean"] + 10
     assert results["parallel_categories"] > 0
+    # the bound: the sequential teacher's whole turn beside its approach; the parallel
+    # teacher, which drives only once it faces the object within 80 deg, saves less
+    sequential = rows["sequential"]["cases"]
+    assert all(0.0 <= c["teacher_turn_s"] <= c["teacher_time_s"] for c in sequential)
+    assert sum(c["teacher_turn_s"] > 0 for c in sequential) == 14  # all but the one at 0 deg
+    bound = np.median(
+        [max(c["teacher_turn_s"], c["teacher_time_s"] - c["teacher_turn_s"]) for c in sequential]
+        / np.array([c["teacher_time_s"] for c in sequential])
+    )
+    teacher = np.median(
+        [
+            p["teacher_time_s"] / s["teacher_time_s"]
+            for p, s in zip(rows["parallel"]["cases"], sequential, strict=True)
+        ]
+    )
+    assert 0.5 < bound < teacher < 1.0
     table = write_parallel_report(results, tmp_path / "parallel")
     assert "| parallel teacher |" in table and "time ÷ sequential" in table
+    assert f"| {bound:.3f} (÷ sequential teacher's) |" in table
     saved = json.loads((tmp_path / "parallel" / "results.json").read_text())
     assert "timings" not in saved and parallel_markdown(saved) == table
     assert (tmp_path / "parallel" / FIGURE_NAME).stat().st_size > 20_000

@@ -63,7 +63,8 @@ def path_length(pose: np.ndarray) -> float:
 def _row(result: Mapping[str, Any], period: float) -> dict[str, Any]:
     """One row's figures from an :func:`evaluate_model` result (with its traces)."""
     cases = []
-    for case, (trace, _reference) in zip(result["cases"], result["_traces"]["model"], strict=True):
+    for case, (trace, reference) in zip(result["cases"], result["_traces"]["model"], strict=True):
+        tags = np.asarray(reference["behavior"]).astype(str)
         cases.append(
             {
                 "start": case["start"],
@@ -71,6 +72,8 @@ def _row(result: Mapping[str, Any], period: float) -> dict[str, Any]:
                 "goal_reached": case["goal_reached"],
                 "time_s": case["steps"] * period,
                 "teacher_time_s": case["reference_steps"] * period,
+                # the teacher's time turning alone (rows tagged ``turn``)
+                "teacher_turn_s": int(np.count_nonzero(tags == "turn")) * period,
                 "path_m": path_length(trace.pose_array),
                 # the path drawn in the figure: every 8th pose (x, y in m)
                 "xy": np.round(trace.pose_array[::8, :2], 4).tolist(),
