@@ -619,11 +619,11 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._now = values
         self._reading = reading
         self._confirmation.observe(reading, self.goal)
+        if self._confirmation.pending:  # the goal being confirmed: until it is decided
+            return self._done(category, novel)
         at_goal = not self._confirmation.holding and within_tolerance(
             values, self.goal, self._tolerance, self.channel_specs
         )
-        if not at_goal:
-            self._confirmation.abandon()
         if self._phase is Phase.PAUSED and not at_goal:
             return self._wait(category, novel)
         if at_goal and self._settles_in_goal():
@@ -935,8 +935,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
         label = self._label or self.name
         confirming = self._confirms and self._rest_readable
         if confirming and self._confirmation.needed(self.goal, self._tolerance):
-            if not readings_at_rest(self._reading):  # come to rest first
-                return self._idle(category, novel)
+            if not self._confirmation.pending:
+                if not readings_at_rest(self._reading):  # come to rest first
+                    return self._idle(category, novel)
+                self._confirmation.begin()  # then every reading counts until it is decided
             verdict = self._confirmation.confirm(self._reading, self.goal, self._tolerance)
             if verdict is None:
                 return self._idle(category, novel)

@@ -514,15 +514,13 @@ class SimplePolicy(GoalTracking, RateLimited):
         settled = self._brake_hold >= BRAKE_SETTLE_CYCLES and still
         if settled and within_tolerance(values, self.goal, self._tolerance, self.channel_specs):
             # braked to rest inside the goal's tolerance: done, whatever the category
-            # (with stop_at_rest only once the readings show rest: slow wheels coast on),
-            # once the raw readings confirm it when they are noisy
-            verdict = self._confirmed_goal()
-            if verdict is None:  # hold still while the readings are averaged
-                return out._replace(command=u)
+            # (with stop_at_rest only once the readings show rest: slow wheels coast on);
+            # on noisy readings once the next readings confirm it (``_decide``)
             self._braking = False
-            if verdict:
-                return out._replace(command=u, done=True, plan_changed=False)
-            return self._limited(out)
+            if self._must_confirm():
+                self._confirmation.begin()
+                return out._replace(command=u)
+            return out._replace(command=u, done=True, plan_changed=False)
         # resume once at rest short of the goal (slow wheels: at most 4x as long)
         self._braking = self._brake_hold < (BRAKE_HOLD_CYCLES if still else 4 * BRAKE_HOLD_CYCLES)
         return out._replace(command=u)
@@ -605,24 +603,27 @@ class SimplePolicy(GoalTracking, RateLimited):
             retarget(self, self._hmm, category, may_raise=not self._started)
         now = self._now(x)
         self._confirmation.observe(reading, self.goal)
-        if category in self._stop_set and not self._confirmation.holding:
+        rest = self._rest_command
+        if self._confirmation.pending:  # a goal being confirmed: until it is decided
+            held = self._confirming(category, novel)
+            if held is not None:
+                return held
+        elif category in self._stop_set and not self._confirmation.holding:
             values = dict(zip(self._channels, now.tolist(), strict=True))
             if within_tolerance(values, self.goal, self._tolerance, self.channel_specs) and (
                 not self._at_rest or readings_at_rest(reading)
             ):
-                rest = self._rest_command
                 if not self._started and self._confirmed < self.start_confirm_cycles:
                     # not moved yet: hold still while the (filtered) readings confirm it
                     self._confirmed += 1
                     return StepOutput(rest, category, novel, -1, self.name, False, False)
-                verdict = self._confirmed_goal()
-                if verdict is None:  # noisy readings: hold still while they are averaged
-                    return StepOutput(rest, category, novel, self._state, self.name, False, False)
-                if verdict:
+                if not self._must_confirm():
                     self._started = True
                     return StepOutput(rest, category, novel, self._state, self.name, False, True)
-            else:
-                self._confirmation.abandon()
+                self._confirmation.begin()  # noisy readings: averaged while it holds still
+                held = self._confirming(category, novel)
+                if held is not None:
+                    return held
         try:
             state = self._decode(category)
         except UnreachableGoalError:
@@ -640,15 +641,24 @@ class SimplePolicy(GoalTracking, RateLimited):
         y = self._features.commit(y)
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
 
-    def _confirmed_goal(self) -> bool | None:
-        """The goal the stop rule found, confirmed on the raw readings at rest when they
-        are noisy (:class:`GoalConfirmation`): True, False (refuted: the generators go on),
-        or None (hold still, not decided yet); True at once on quiet readings."""
-        if not (self.confirm_goal and self._at_rest):  # (a robot that cannot show rest
-            return True  # stops at speed: nothing to average)
-        if not self._confirmation.needed(self.goal, self._tolerance):
-            return True
-        return self._confirmation.confirm(self._reading, self.goal, self._tolerance)
+    def _must_confirm(self) -> bool:
+        """Whether a goal the stop rule found at rest must first be confirmed on the raw
+        readings (:class:`GoalConfirmation`): they are noisy, and the robot can show rest
+        (one that cannot stops at speed: nothing to average)."""
+        if not (self.confirm_goal and self._at_rest):
+            return False
+        return self._confirmation.needed(self.goal, self._tolerance)
+
+    def _confirming(self, category: int, novel: bool) -> StepOutput | None:
+        """One reading of the goal being confirmed: hold still (not decided yet), done
+        (confirmed), or None (refuted: the generators go on, the stop rule waits)."""
+        verdict = self._confirmation.confirm(self._reading, self.goal, self._tolerance)
+        if verdict is False:
+            return None
+        if verdict:
+            self._started = True
+        rest = self._rest_command
+        return StepOutput(rest, category, novel, self._state, self.name, False, bool(verdict))
 
     def _decode(self, category: int) -> int:
         """Active primitive for the current observation category (see ``state_decoding``)."""
