@@ -565,3 +565,9 @@ def test_a_complex_run_confirms_its_goal_only_if_its_components_stop_at_rest(
     for component in cblm.components_:  # the thesis preset's components
         monkeypatch.setattr(component, "stop_at_rest", False)
     assert not cblm.policy(None)._confirms
+
+
+def test_a_nested_complex_component_leaves_confirming_to_its_parent(nested: CBLM) -> None:
+    policy = nested.policy(None)
+    assert policy._confirms and policy.confirm_goal
+    assert all(not child.confirm_goal for child in policy._children.values())

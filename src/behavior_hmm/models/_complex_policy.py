@@ -459,8 +459,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._confirmation = GoalConfirmation(self.channel_specs)
         self._rest_readable = True
         #: confirming is part of stopping at rest (``SBLM.stop_at_rest``): on when the
-        #: components stop at rest (the thesis preset's do not)
+        #: components stop at rest (the thesis preset's do not), and off for a component
+        #: of a higher CBLM (``confirm_goal``: that one confirms its own goal)
         self._confirms = stops_at_rest(model)
+        self.confirm_goal = True
         self._channels = tuple(model.inputs_)
         self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
@@ -933,7 +935,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         is repaired from where the readings' mean puts the robot (:meth:`_repair`).
         """
         label = self._label or self.name
-        confirming = self._confirms and self._rest_readable
+        confirming = self.confirm_goal and self._confirms and self._rest_readable
         if confirming and self._confirmation.needed(self.goal, self._tolerance):
             if not self._confirmation.pending:
                 if not readings_at_rest(self._reading):  # come to rest first
