@@ -620,7 +620,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         values = self._values(reading, x)
         self._now = values
         self._reading = reading
-        self._confirmation.observe(reading, self.goal)
+        if self.confirm_goal and self._confirms:  # only a policy that may confirm its goal
+            self._confirmation.observe(reading, self.goal)
         if self._confirmation.pending:  # the goal being confirmed: until it is decided
             return self._done(category, novel)
         at_goal = not self._confirmation.holding and within_tolerance(

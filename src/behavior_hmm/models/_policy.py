@@ -602,7 +602,8 @@ class SimplePolicy(GoalTracking, RateLimited):
         if category != self._reachable_from:
             retarget(self, self._hmm, category, may_raise=not self._started)
         now = self._now(x)
-        self._confirmation.observe(reading, self.goal)
+        if self.confirm_goal and self._at_rest:  # only a policy that may confirm its goal
+            self._confirmation.observe(reading, self.goal)
         rest = self._rest_command
         if self._confirmation.pending:  # a goal being confirmed: until it is decided
             held = self._confirming(category, novel)
