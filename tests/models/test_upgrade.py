@@ -13,17 +13,6 @@ from model_versions import as_version_1
 from behavior_hmm.errors import ModelFileError
 from behavior_hmm.models import CBLM, SBLM, _modelfile, load
 from behavior_hmm.models._upgrade import upgrade
-from behavior_hmm.teach import collect
-
-
-@pytest.fixture(scope="module")
-def ta_model(turn_model: SBLM) -> CBLM:
-    starts = [{"distance": d, "angle": a} for d in (0.3, 0.5) for a in (-90.0, 0.0, 120.0)]
-    approach_data = collect("approach", starts, sim="kinematic", seed=0)
-    approach = SBLM(inputs=("distance", "angle"), epochs=30, random_state=0).fit(approach_data)
-    ta_data = collect("turn-approach", starts, sim="kinematic", seed=0)
-    model = CBLM(inputs=("distance", "angle"), components=[turn_model, approach])
-    return model.fit(ta_data)
 
 
 def test_version_1_is_refused_with_the_upgrade_named(

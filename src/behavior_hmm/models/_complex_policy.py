@@ -491,7 +491,13 @@ class ComplexPolicy(GoalTracking, RateLimited):
             k: make_policy(component, None, name=model.names_[k])
             for k, component in enumerate(model.components_)
         }
+        #: whether the readings are noisy, asked of the complex behavior that runs this
+        #: one (None: judged from this policy's own goal confirmation)
+        self.noisy_readings: Callable[[], bool] | None = None
         for child in self._children.values():
+            # whether the readings are noisy is this policy's to judge (its components
+            # do not confirm their goals, so keep no noise estimate of their own)
+            child.noisy_readings = self._noisy
             if hasattr(child, "start_confirm_cycles"):
                 # the complex level checks its own goal before it runs a component
                 child.start_confirm_cycles = 0
@@ -937,6 +943,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
         """
         label = self._label or self.name
         confirming = self.confirm_goal and self._confirms and self._rest_readable
+        if confirming and not self._confirmation.noise_known(self.goal):
+            # a run that starts at its goal: not before the readings' noise is known
+            return self._idle(category, novel)
         if confirming and self._confirmation.needed(self.goal, self._tolerance):
             if not self._confirmation.pending:
                 if not readings_at_rest(self._reading):  # come to rest first
@@ -1105,6 +1114,15 @@ class ComplexPolicy(GoalTracking, RateLimited):
             unable=self._unable,
             tolerance=self._tolerance,
         )
+
+    def _noisy(self) -> bool:
+        """Whether the readings are noisy: told by the complex behavior that runs this
+        one (``noisy_readings``), else judged by this policy's own goal confirmation."""
+        if self.noisy_readings is not None:
+            return self.noisy_readings()
+        if not (self.confirm_goal and self._confirms):
+            return False
+        return self._confirmation.needed(self.goal, self._tolerance)
 
     def _follows(self, component: int, other: int) -> bool:
         """Whether the demonstrations switch ``other`` -> ``component`` more than back."""

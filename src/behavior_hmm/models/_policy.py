@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -12,7 +13,7 @@ from numpy.typing import NDArray
 from behavior_hmm.data._channels import TOLERANCES, ChannelSpec, within_tolerance
 from behavior_hmm.data._filter import LowPassFilter
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
-from behavior_hmm.models._confirm import GoalConfirmation
+from behavior_hmm.models._confirm import NOISE_MIN, GoalConfirmation
 from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
 from behavior_hmm.runtime._policy import StepOutput
 
@@ -152,8 +153,10 @@ BRAKE_SETTLE_CYCLES = 3
 
 #: Readings over which a robot that has not moved yet must hold its goal before its run
 #: ends there (with ``stop_at_rest``): one noisy first reading inside the tolerance
-#: does not end a run whose start lies outside it.
-START_CONFIRM_CYCLES = 8
+#: does not end a run whose start lies outside it; and the readings' noise can be
+#: estimated by then (``NOISE_MIN`` second differences), so a noisy goal is confirmed
+#: on the raw readings before the run ends (``SimplePolicy._noise_known``).
+START_CONFIRM_CYCLES = NOISE_MIN + 2
 
 #: A soft stop at the goal takes at most this many control cycles; a robot moving faster
 #: than that when its goal is reached (an intermediate goal that its demonstrations
@@ -255,7 +258,9 @@ class SimplePolicy(GoalTracking, RateLimited):
     ``primitive_recognition``, the primitive the primitive CobART recognizes in the
     live window among those the plan allows), and command the wheels from that
     primitive's motion generator (fed the cycles since the start when the model has an
-    ``onset_clock``). It stops when the goal category is reached
+    ``onset_clock``; on noisy readings the running primitive is held through an
+    observation category it was never seen in until that category has lasted the
+    filter's lag, :meth:`_outlier`). It stops when the goal category is reached
     *and* the filtered readings lie within the goal's physical tolerance (with
     ``recover``, on a robot without velocity readings, which cannot show rest: where the
     robot is now, the filtered readings moved on by how far the filter makes them trail).
@@ -293,6 +298,9 @@ class SimplePolicy(GoalTracking, RateLimited):
         #: complex behavior confirms its own goal, not its components')
         self.confirm_goal = True
         self._confirmation = GoalConfirmation(self.channel_specs)
+        #: whether the readings are noisy, asked of the complex behavior that runs this
+        #: policy (None: judged from this policy's own goal confirmation)
+        self.noisy_readings: Callable[[], bool] | None = None
         self._channels = tuple(model.inputs_)
         self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
@@ -337,6 +345,12 @@ class SimplePolicy(GoalTracking, RateLimited):
         filters = model.pipeline_.filters
         #: cycles the filtered readings trail the robot while it moves steadily
         self._lag = filters[0].lag_samples if filters else 0.0
+        #: noisy readings: cycles an observation the running primitive never emitted must
+        #: last before it is believed (:meth:`_outlier`), and those it has lasted
+        self._outlier_cycles = math.ceil(self._lag)
+        self._outliers = 0
+        #: cycles in a row the running primitive explained the observation
+        self._support = 0
         #: ``recover``: judge the goal where the robot is now, not where the lagging
         #: filtered readings put it (set by ``bind`` on a robot whose readings cannot show
         #: rest): the inputs' change the sent commands made (``command_rates_``), less that
@@ -360,6 +374,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._confirmed = 0
         self._confirmation.reset()
         self._state = -1
+        self._outliers = self._support = 0
         self._last_obs = -1
         self._alpha = self._log_pi.copy()
         self._prior = self._log_pi
@@ -618,13 +633,16 @@ class SimplePolicy(GoalTracking, RateLimited):
                     # not moved yet: hold still while the (filtered) readings confirm it
                     self._confirmed += 1
                     return StepOutput(rest, category, novel, -1, self.name, False, False)
-                if not self._must_confirm():
-                    self._started = True
-                    return StepOutput(rest, category, novel, self._state, self.name, False, True)
-                self._confirmation.begin()  # noisy readings: averaged while it holds still
-                held = self._confirming(category, novel)
-                if held is not None:
-                    return held
+                if self._noise_known():  # else too few readings yet to tell: it goes on
+                    if not self._must_confirm():
+                        self._started = True
+                        return StepOutput(
+                            rest, category, novel, self._state, self.name, False, True
+                        )
+                    self._confirmation.begin()  # noisy readings: averaged while it holds still
+                    held = self._confirming(category, novel)
+                    if held is not None:
+                        return held
         try:
             state = self._decode(category)
         except UnreachableGoalError:
@@ -632,6 +650,8 @@ class SimplePolicy(GoalTracking, RateLimited):
                 raise
             state = self._state  # keep executing the current primitive until a plan exists
         changed = state != self._state
+        if changed:
+            self._support = self._outliers = 0
         self._state = state
         self._started = True
         y = self._generator.step(self._features.row(), state)
@@ -641,6 +661,15 @@ class SimplePolicy(GoalTracking, RateLimited):
             y = np.where(self._held, self._rest_command / self._scale, y)
         y = self._features.commit(y)
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
+
+    def _noise_known(self) -> bool:
+        """Whether the readings have been read long enough to tell whether they are noisy
+        (always, for a policy that does not confirm its goal): a run that moved within its
+        first ``START_CONFIRM_CYCLES`` cannot end before (a turn started 7 deg off, noise
+        0.02, moved on a noisy reading and ended at its 7th, 6.9 deg off)."""
+        if not (self.confirm_goal and self._at_rest):
+            return True
+        return self._confirmation.noise_known(self.goal)
 
     def _must_confirm(self) -> bool:
         """Whether a goal the stop rule found at rest must first be confirmed on the raw
@@ -695,9 +724,49 @@ class SimplePolicy(GoalTracking, RateLimited):
         best = int(np.argmax(total))
         if not np.isfinite(total[best]):
             return self._hmm.plan(category, self.goal_category).states[0]
+        if self._outlier(total):
+            return self._state
         if self._recognize:
             return self._recognized(total)
         return best
+
+    def _outlier(self, total: FloatArray) -> bool:
+        """Whether the running primitive goes on through an observation it never emitted.
+
+        On noisy readings the observation window can stray for a few cycles into a
+        category the running primitive was never seen in, which rules it out (its score
+        is -inf) and forces a switch and, a few cycles later, the switch back: each a dip
+        in the commands (approach, MuJoCo, noise 0.01: 12-46 primitive switches a run
+        against 2-5 without noise). Such a category is believed once it has lasted as
+        long as the readings' filter takes to pass a change (its lag, 7 cycles at 2 Hz);
+        before that the running primitive goes on, if the observations explained it for
+        as long before (one chosen on a cycle or two of noise at a start is not held).
+        Only a policy that decodes the history (``state_decoding="history"``) holds, and
+        only on noisy readings (:meth:`_noisy`): clean readings run as before, to the bit.
+        """
+        cur = self._state
+        if cur < 0:
+            return False
+        if np.isfinite(total[cur]):
+            self._outliers = 0
+            self._support += 1
+            return False
+        if self._support < self._outlier_cycles or self._outliers >= self._outlier_cycles:
+            return False
+        if not self._noisy():
+            return False
+        self._outliers += 1
+        return True
+
+    def _noisy(self) -> bool:
+        """Whether the readings are noisy: told by the complex behavior that runs this
+        policy (``noisy_readings``), else judged by this policy's own goal confirmation
+        (kept only by a policy that may confirm its goal)."""
+        if self.noisy_readings is not None:
+            return self.noisy_readings()
+        if not (self.confirm_goal and self._at_rest):
+            return False
+        return self._confirmation.needed(self.goal, self._tolerance)
 
     def _recognized(self, total: FloatArray) -> int:
         """Best-matching live primitive among those the plan allows (finite score)."""

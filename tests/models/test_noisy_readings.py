@@ -1,0 +1,78 @@
+"""On noisy readings a primitive is not dropped for every category the noise shows.
+
+Sensor noise carries the observation window for a cycle or a few into categories the
+running primitive was never seen in: it is held through such a category until that has
+lasted the readings' filter lag (``SimplePolicy._outlier``). A complex behavior's
+components ask it whether the readings are noisy. Clean readings change nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any
+
+import numpy as np
+
+from behavior_hmm.models import CBLM, SBLM
+
+SIGMA_ANGLE = 3.6  # deg: noise 0.01 of the bearing's 360 deg range
+SIGMA_DISTANCE = 0.01  # m: noise 0.01 of the distance's 1 m range
+
+
+def _reading(angle: float, distance: float = 0.5) -> dict[str, float]:
+    return {"angle": angle, "distance": distance, "angular_velocity": 0.0, "linear_velocity": 0.0}
+
+
+def _primitives(model: SBLM, readings: np.ndarray, hold: bool) -> list[int]:
+    """The primitive of every cycle of an open-loop run fed ``readings`` of the bearing."""
+    policy = model.policy({"angle": 0.0})
+    if not hold:
+        policy._outlier_cycles = 0
+    policy.reset()
+    return [policy.step(_reading(float(a))).state for a in readings]
+
+
+def _switches(states: list[Any]) -> int:
+    return sum(1 for a, b in itertools.pairwise(states) if a != b)
+
+
+def test_the_hold_lasts_the_filter_lag(turn_model: SBLM) -> None:
+    lag = turn_model.pipeline_.filters[0].lag_samples
+    assert turn_model.policy({"angle": 0.0})._outlier_cycles == math.ceil(lag) > 0
+
+
+def test_a_noisy_turn_switches_primitives_less(turn_model: SBLM) -> None:
+    clean = np.linspace(150.0, 10.0, 300)
+    held = free = 0
+    for seed in range(5):
+        noisy = clean + np.random.default_rng(seed).normal(0.0, SIGMA_ANGLE, clean.size)
+        held += _switches(_primitives(turn_model, noisy, hold=True))
+        free += _switches(_primitives(turn_model, noisy, hold=False))
+    assert held < 0.8 * free
+
+
+def test_clean_readings_switch_primitives_as_before(turn_model: SBLM) -> None:
+    clean = np.linspace(150.0, 10.0, 300)
+    states = _primitives(turn_model, clean, hold=True)
+    assert states == _primitives(turn_model, clean, hold=False)
+    assert _switches(states) > 3
+
+
+def test_the_components_ask_the_complex_behavior_whether_the_readings_are_noisy(
+    ta_model: CBLM,
+) -> None:
+    """A component keeps no noise estimate of its own (it does not confirm its goal):
+    its hold follows the complex behavior's judgement, whose noise estimate it keeps."""
+    policy = ta_model.policy(None)
+    policy.reset()
+    rng = np.random.default_rng(0)
+    children = list(policy._children.values())
+    assert all(not child._noisy() for child in children)  # nothing read yet
+    for a in np.linspace(-90.0, -30.0, 40) + rng.normal(0.0, SIGMA_ANGLE, 40):
+        policy.step(_reading(float(a), 0.5 + float(rng.normal(0.0, SIGMA_DISTANCE))))
+    assert all(child._noisy() for child in children)
+    policy.reset()
+    for a in np.linspace(-90.0, -30.0, 40):
+        policy.step(_reading(float(a)))
+    assert not any(child._noisy() for child in children)
