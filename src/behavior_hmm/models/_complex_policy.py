@@ -491,9 +491,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
             k: make_policy(component, None, name=model.names_[k])
             for k, component in enumerate(model.components_)
         }
-        #: whether the readings are noisy, asked of the complex behavior that runs this
-        #: one (None: judged from this policy's own goal confirmation)
-        self.noisy_readings: Callable[[], bool] | None = None
+        self.noisy_readings = None
         for child in self._children.values():
             # whether the readings are noisy is this policy's to judge (its components
             # do not confirm their goals, so keep no noise estimate of their own)
@@ -626,7 +624,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         values = self._values(reading, x)
         self._now = values
         self._reading = reading
-        if self.confirm_goal and self._confirms:  # only a policy that may confirm its goal
+        if self._keeps_noise():
             self._confirmation.observe(reading, self.goal)
         if self._confirmation.pending:  # the goal being confirmed: until it is decided
             return self._done(category, novel)
@@ -942,7 +940,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
         is repaired from where the readings' mean puts the robot (:meth:`_repair`).
         """
         label = self._label or self.name
-        confirming = self.confirm_goal and self._confirms and self._rest_readable
+        confirming = self._keeps_noise() and self._rest_readable
         if confirming and not self._confirmation.noise_known(self.goal):
             # a run that starts at its goal: not before the readings' noise is known
             return self._idle(category, novel)
@@ -1115,14 +1113,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
             tolerance=self._tolerance,
         )
 
-    def _noisy(self) -> bool:
-        """Whether the readings are noisy: told by the complex behavior that runs this
-        one (``noisy_readings``), else judged by this policy's own goal confirmation."""
-        if self.noisy_readings is not None:
-            return self.noisy_readings()
-        if not (self.confirm_goal and self._confirms):
-            return False
-        return self._confirmation.needed(self.goal, self._tolerance)
+    def _keeps_noise(self) -> bool:
+        """Whether this policy records the readings' noise: it may confirm its goal (its
+        components stop at rest, and it is no component of a higher one)."""
+        return self.confirm_goal and self._confirms
 
     def _follows(self, component: int, other: int) -> bool:
         """Whether the demonstrations switch ``other`` -> ``component`` more than back."""

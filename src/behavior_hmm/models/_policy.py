@@ -87,6 +87,25 @@ class GoalTracking:
     _goal_set: frozenset[int]
     _stop_set: frozenset[int]
     _reachable_from: int
+    #: the goal confirmed on the raw readings at rest when they are noisy
+    _confirmation: GoalConfirmation
+    #: off for a component of a complex behavior (that one confirms its own goal)
+    confirm_goal: bool
+    #: whether the readings are noisy, asked of the complex behavior that runs this
+    #: policy (None: judged from this policy's own goal confirmation)
+    noisy_readings: Callable[[], bool] | None
+
+    def _keeps_noise(self) -> bool:
+        """Whether this policy records the readings' noise: it may confirm its goal."""
+        raise NotImplementedError
+
+    def _noisy(self) -> bool:
+        """Whether the readings are noisy: told by the complex behavior that runs this
+        policy (``noisy_readings``), else judged by this policy's own goal confirmation
+        (kept only by a policy that may confirm its goal)."""
+        if self.noisy_readings is not None:
+            return self.noisy_readings()
+        return self._keeps_noise() and self._confirmation.needed(self.goal, self._tolerance)
 
     def _set_goal(self, model: Any, goal: Mapping[str, float] | None) -> None:
         """Resolve the goal and its categories; build their planning trees before motion.
@@ -298,9 +317,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         #: complex behavior confirms its own goal, not its components')
         self.confirm_goal = True
         self._confirmation = GoalConfirmation(self.channel_specs)
-        #: whether the readings are noisy, asked of the complex behavior that runs this
-        #: policy (None: judged from this policy's own goal confirmation)
-        self.noisy_readings: Callable[[], bool] | None = None
+        self.noisy_readings = None
         self._channels = tuple(model.inputs_)
         self.channels = read_channels(model)
         self._pipe = model.pipeline_.online()
@@ -617,7 +634,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         if category != self._reachable_from:
             retarget(self, self._hmm, category, may_raise=not self._started)
         now = self._now(x)
-        if self.confirm_goal and self._at_rest:  # only a policy that may confirm its goal
+        if self._keeps_noise():
             self._confirmation.observe(reading, self.goal)
         rest = self._rest_command
         if self._confirmation.pending:  # a goal being confirmed: until it is decided
@@ -667,17 +684,18 @@ class SimplePolicy(GoalTracking, RateLimited):
         (always, for a policy that does not confirm its goal): a run that moved within its
         first ``START_CONFIRM_CYCLES`` cannot end before (a turn started 7 deg off, noise
         0.02, moved on a noisy reading and ended at its 7th, 6.9 deg off)."""
-        if not (self.confirm_goal and self._at_rest):
-            return True
-        return self._confirmation.noise_known(self.goal)
+        return not self._keeps_noise() or self._confirmation.noise_known(self.goal)
 
     def _must_confirm(self) -> bool:
         """Whether a goal the stop rule found at rest must first be confirmed on the raw
         readings (:class:`GoalConfirmation`): they are noisy, and the robot can show rest
         (one that cannot stops at speed: nothing to average)."""
-        if not (self.confirm_goal and self._at_rest):
-            return False
-        return self._confirmation.needed(self.goal, self._tolerance)
+        return self._keeps_noise() and self._confirmation.needed(self.goal, self._tolerance)
+
+    def _keeps_noise(self) -> bool:
+        """Whether this policy records the readings' noise: it may confirm its goal, and
+        the robot can show rest (one that cannot stops at speed: nothing to average)."""
+        return self.confirm_goal and self._at_rest
 
     def _confirming(self, category: int, novel: bool) -> StepOutput | None:
         """One reading of the goal being confirmed: hold still (not decided yet), done
@@ -757,16 +775,6 @@ class SimplePolicy(GoalTracking, RateLimited):
             return False
         self._outliers += 1
         return True
-
-    def _noisy(self) -> bool:
-        """Whether the readings are noisy: told by the complex behavior that runs this
-        policy (``noisy_readings``), else judged by this policy's own goal confirmation
-        (kept only by a policy that may confirm its goal)."""
-        if self.noisy_readings is not None:
-            return self.noisy_readings()
-        if not (self.confirm_goal and self._at_rest):
-            return False
-        return self._confirmation.needed(self.goal, self._tolerance)
 
     def _recognized(self, total: FloatArray) -> int:
         """Best-matching live primitive among those the plan allows (finite score)."""
