@@ -141,12 +141,33 @@ def test_a_sweep_with_an_option_runs_its_row_and_says_so() -> None:
         faults=["wheel_mismatch"],
         levels={"wheel_mismatch": [0.4]},
         n_starts=3,
-        options=("wheel_calibration",),
+        options=("recover",),
     )
-    assert results["preset"] == "default + wheel_calibration"
-    assert "default + wheel_calibration preset" in faults_markdown(results)
-    (cell,) = results["tasks"][0]["cells"]
-    assert cell["goal_reached"] == 3
+    assert results["preset"] == "default + recover"
+    assert "default + recover preset" in faults_markdown(results)
+
+
+def test_a_sweep_without_a_departure_runs_the_thesis_value_and_says_so() -> None:
+    # approach under a 0.4 wheel mismatch: the default preset calibrates the wheels and
+    # reaches its goals; without that departure the robot curves off on some starts
+    common: dict[str, Any] = {
+        "sim": "kinematic",
+        "tasks": ["approach"],
+        "faults": ["wheel_mismatch"],
+        "levels": {"wheel_mismatch": [0.4]},
+        "n_starts": 5,
+    }
+    plain = run_faults(**common, without=("wheel_calibration",))
+    calibrated = run_faults(**common)
+    assert plain["preset"] == "default − wheel_calibration"
+    assert "default − wheel_calibration preset" in faults_markdown(plain)
+    assert calibrated["preset"] == "default"
+    (worse,) = plain["tasks"][0]["cells"]
+    (better,) = calibrated["tasks"][0]["cells"]
+    assert better["goal_reached"] == 5
+    assert better["success_rate_mean"] > worse["success_rate_mean"] + 5.0
+    with pytest.raises(ConfigError, match="unknown departure 'wheel'"):
+        run_faults(**common, without=("wheel",))
 
 
 def test_every_fault_kind_has_levels() -> None:

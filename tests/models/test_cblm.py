@@ -318,11 +318,14 @@ def test_an_approach_the_plan_leaves_out_runs_after_the_turn(
 
 
 def test_a_nested_cblm_stops_as_softly_as_its_components(
-    components: dict[str, Any], nested: CBLM, kinematic_env: Any
+    components: dict[str, Any], nested: CBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # the outer level let its component (itself complex) brake into the goal only when
     # that component was simple: a nested run stopped from cruise speed in one cycle
     goal = {"angle": 0.0, "distance": 0.3}
+    # the limit is on the commands the behavior asks for: the wheel calibration divides
+    # them by gains that move (by well under 1 %) as they are measured
+    monkeypatch.setattr(nested, "wheel_calibration", False)
     trace = nested.generate(kinematic_env, start={"angle": 0.0, "distance": 0.8}, goal=goal)
     commands = np.asarray(trace.commands)
     approach = components["approach"]
@@ -371,6 +374,7 @@ def test_a_cycle_without_a_component_slows_down_instead_of_stopping_dead(
         return original(self, reading)
 
     monkeypatch.setattr(SimplePolicy, "step", step)
+    monkeypatch.setattr(cblm, "wheel_calibration", False)  # the commands asked (above)
     trace = cblm.generate(kinematic_env, start={"angle": 0.0, "distance": 0.8}, seed=0)
     assert calls[0] > 40
     rates = [

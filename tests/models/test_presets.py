@@ -139,7 +139,6 @@ def test_every_option_is_off_in_both_presets_and_names_real_parameters() -> None
         "shared_init",
         "recover",
         "auto_inputs",
-        "wheel_calibration",
     ]
     for item in OPTIONS:
         assert option(item.name) is item and check_row_name(item.name) == item.name

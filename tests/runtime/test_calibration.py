@@ -13,6 +13,7 @@ import pytest
 from behavior_hmm.data import Dataset
 from behavior_hmm.errors import ConfigError
 from behavior_hmm.models import SBLM
+from behavior_hmm.models._presets import preset_params
 from behavior_hmm.runtime import (
     StepOutput,
     Trace,
@@ -32,15 +33,55 @@ def measured(wheels: np.ndarray) -> tuple[float, float]:
     return R * (left + right) / 2.0, math.degrees(R * (right - left) / W)
 
 
-def drive(calibration: WheelCalibration, gains: np.ndarray, commands: np.ndarray) -> np.ndarray:
+def drive(
+    calibration: WheelCalibration,
+    gains: np.ndarray,
+    commands: np.ndarray,
+    noise: tuple[float, float] = (0.0, 0.0),
+    seed: int = 0,
+) -> np.ndarray:
     """Run ``commands`` through the calibration on wheels with ``gains`` and a lag of
-    ``calibration.lag`` cycles; return the commands it sent."""
+    ``calibration.lag`` cycles, the readings with Gaussian ``noise`` (σ of the body
+    speed, m/s, and of the yaw rate, deg/s); return the commands it sent."""
+    rng = np.random.default_rng(seed)
     sent: list[np.ndarray] = []
     for u in commands:
         if len(sent) >= calibration.lag:
-            calibration.observe(*measured(gains * sent[-calibration.lag]))
+            speed, yaw_rate = measured(gains * sent[-calibration.lag])
+            speed += noise[0] * rng.standard_normal()
+            yaw_rate += noise[1] * rng.standard_normal()
+            calibration.observe(speed, yaw_rate)
         sent.append(calibration.correct(u))
     return np.asarray(sent)
+
+
+def wandering(seed: int) -> np.ndarray:
+    """400 cycles about 3 rad/s per wheel, a new command every 10 cycles."""
+    rng = np.random.default_rng(seed)
+    return 3.0 + np.repeat(rng.normal(0.0, 0.3, (40, 2)), 10, axis=0)
+
+
+#: Sensor noise 0.02 of our channels' ranges: 0.006 m/s on the speed, 3.6 deg/s on the yaw rate.
+NOISE_002 = (0.006, 3.6)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_difference_within_the_readings_noise_is_left_alone(seed: int) -> None:
+    # equal wheels read through noise: the estimate wanders (by up to 0.03 here), and
+    # correcting it would curve a straight command; it stays within its errors
+    calibration = WheelCalibration(R, W, TOP)
+    commands = wandering(seed)
+    sent = drive(calibration, np.ones(2), commands, noise=NOISE_002, seed=seed)
+    assert np.ptp(np.log(calibration.measured_gains)) > 0.0  # it did wander
+    np.testing.assert_array_equal(sent, commands)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_mismatch_beyond_the_readings_noise_is_corrected(seed: int) -> None:
+    calibration = WheelCalibration(R, W, TOP)
+    gains = np.array([0.8, 1.2])
+    drive(calibration, gains, wandering(seed), noise=NOISE_002, seed=seed)
+    np.testing.assert_allclose(calibration.gains, gains, atol=0.03)
 
 
 def test_the_gains_converge_and_the_wheels_turn_as_asked() -> None:
@@ -163,12 +204,16 @@ def test_the_model_parameter_is_checked_and_reaches_the_loop(turn_model: SBLM) -
         SBLM(inputs=("angle",), wheel_calibration="yes").check_params()  # type: ignore[arg-type]
     env = make_env("kinematic", params=RobotParams(wheel_mismatch=0.3))
     start = {"angle": 90.0, "distance": 0.5}
-    plain = turn_model.generate(env, start=start)
-    turn_model.set_params(wheel_calibration=True)
+    # on in the default preset, off in the thesis's
+    assert turn_model.wheel_calibration is True
+    assert preset_params("thesis", "SBLM")["wheel_calibration"] is False
+    assert preset_params("thesis", "CBLM")["wheel_calibration"] is False
+    calibrated = turn_model.generate(env, start=start)
+    turn_model.set_params(wheel_calibration=False)
     try:
-        calibrated = turn_model.generate(env, start=start)
+        plain = turn_model.generate(env, start=start)
     finally:
-        turn_model.set_params(wheel_calibration=False)
+        turn_model.set_params(wheel_calibration=True)
     assert plain.wheel_gains is None
     assert calibrated.goal_reached and calibrated.wheel_gains is not None
     # turning in place, the right wheel's larger gain is seen and corrected

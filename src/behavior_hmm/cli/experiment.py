@@ -318,7 +318,14 @@ def experiment_faults(
         list[str] | None,
         typer.Option(
             help="Switch on this option over the default preset (repeatable), e.g. "
-            "wheel_calibration (the options of experiment ablation)"
+            "recover (the options of experiment ablation)"
+        ),
+    ] = None,
+    without: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Switch this departure of the default preset back to the thesis's value "
+            "(repeatable), e.g. wheel_calibration (the departures of experiment ablation)"
         ),
     ] = None,
     workers: WorkersOption = None,
@@ -338,6 +345,7 @@ def experiment_faults(
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._ablation import task as ablation_task
     from behavior_hmm.evaluate._faults import fault_kind, run_faults
+    from behavior_hmm.models._presets import departure as check_departure
     from behavior_hmm.models._presets import option as check_option
     from behavior_hmm.viz._faults import write_faults_report
 
@@ -349,6 +357,8 @@ def experiment_faults(
         fault_kind(name)
     for name in option or []:
         check_option(name)
+    for name in without or []:
+        check_departure(name)
     check_outputs({}, {}, folders={"-o": out})
     runner = make_run_executor(executor, workers, address)
     results = with_progress(
@@ -360,6 +370,7 @@ def experiment_faults(
         tasks=task or None,
         faults=fault or None,
         options=tuple(option or ()),
+        without=tuple(without or ()),
     )
     _write_report(
         lambda: write_faults_report(results, out),

@@ -43,7 +43,7 @@ from behavior_hmm.evaluate._ablation import task as ablation_task
 from behavior_hmm.evaluate._executor import Executor, SerialExecutor
 from behavior_hmm.evaluate._experiments import _collect_task
 from behavior_hmm.evaluate._protocol import evaluate_model
-from behavior_hmm.models._presets import option
+from behavior_hmm.models._presets import departure, option
 
 Progress = Callable[[int, int], None]
 Level = float | str
@@ -330,6 +330,7 @@ def run_faults(
     levels: Mapping[str, Sequence[Level]] | None = None,
     n_starts: int | None = None,
     options: Sequence[str] = (),
+    without: Sequence[str] = (),
     progress: Progress | None = None,
     executor: Executor | None = None,
 ) -> dict[str, Any]:
@@ -355,8 +356,12 @@ def run_faults(
         Evaluate from only the first ``n_starts`` test starts (default: all 15).
     options
         Options (:data:`~behavior_hmm.models._presets.OPTIONS`) switched on over the
-        default preset, e.g. ``("wheel_calibration",)``; the results' ``preset`` is the
-        row's label (``default + wheel_calibration``).
+        default preset, e.g. ``("recover",)``; the results' ``preset`` is the row's
+        label (``default + recover``).
+    without
+        Departures (:data:`~behavior_hmm.models._presets.DEPARTURES`) switched back to
+        their thesis value, e.g. ``("wheel_calibration",)`` (``default −
+        wheel_calibration``).
     progress
         Called with (tasks done, tasks in all): collections, fits and cells.
     executor
@@ -378,7 +383,11 @@ def run_faults(
     plan = [(k, own.get(k.name, k.levels)) for k in kinds]
     if n_starts is not None and n_starts < 1:
         raise ConfigError(f"n_starts must be >= 1, got {n_starts}")
-    row = AblationRow("default", options=tuple(option(name).name for name in options))
+    row = AblationRow(
+        "default",
+        switched=tuple(departure(name).name for name in without),
+        options=tuple(option(name).name for name in options),
+    )
     # the simple tasks whose SBLMs are fitted: each task's own, or a complex task's
     # components (shared with a simple task of the same name), each once
     parts: dict[str, AblationTask] = {}

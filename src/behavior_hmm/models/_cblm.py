@@ -119,7 +119,7 @@ class CBLM(LearnedBehavior):
     wheel_calibration
         If true, the control loop corrects the wheels' gain difference while the complex
         behavior runs, across its components, as :class:`SBLM`'s ``wheel_calibration``
-        does (:class:`~behavior_hmm.runtime.WheelCalibration`). Off in both presets.
+        does (:class:`~behavior_hmm.runtime.WheelCalibration`; thesis: off).
     settle_cycles
         When the goal's tolerance is entered while the running component still heads
         for a goal inside it, that component may finish (its own stop rule: at rest,
@@ -212,7 +212,7 @@ class CBLM(LearnedBehavior):
         handover_pause: bool = True,
         reach_check: bool = True,
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
-        wheel_calibration: bool = False,
+        wheel_calibration: bool = True,
         parallel: bool = True,
         random_state: int = 0,
     ) -> None:

@@ -829,6 +829,15 @@ def retarget(
         )
 
 
+def calibrates(model: Any) -> bool:
+    """Whether runs of ``model`` calibrate the wheels: its ``wheel_calibration``, where
+    its demonstrations measured how their wheels answered (``wheel_response_``); a model
+    of an arm or a pen has nothing to calibrate against and runs without, silently."""
+    return bool(getattr(model, "wheel_calibration", False)) and (
+        getattr(model, "wheel_response_", None) is not None
+    )
+
+
 def make_policy(
     model: Any, goal: Mapping[str, float] | None, name: str = "", tolerance: float = 1.0
 ) -> Any:
@@ -900,6 +909,6 @@ def perform(
         pushes=pushes,
         fault_hold_s=fault_hold_s,
         progress_limit=float(getattr(model, "progress_limit", 1.0)),
-        wheel_calibration=bool(getattr(model, "wheel_calibration", False)),
+        wheel_calibration=calibrates(model),
         wheel_response=getattr(model, "wheel_response_", None),
     )

@@ -210,6 +210,12 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         {"CBLM": {"start_alternatives": 0}},
         "an unplannable start category tries up to 5 runner-up categories",
     ),
+    Departure(
+        "wheel_calibration",
+        {"SBLM": {"wheel_calibration": False}, "CBLM": {"wheel_calibration": False}},
+        "each wheel's gain estimated on line from the measured speed and yaw rate; the "
+        "wheels' difference beyond its noise divided out of the commands",
+    ),
 )
 
 
@@ -268,12 +274,6 @@ OPTIONS: Final[tuple[Option, ...]] = (
         {"SBLM": {"inputs": AUTO_INPUTS}},
         "each simple behavior's input channels chosen from its demonstrations "
         "(select_inputs; thesis 7.2's feature selection); a CBLM keeps its task's inputs",
-    ),
-    Option(
-        "wheel_calibration",
-        {"SBLM": {"wheel_calibration": True}, "CBLM": {"wheel_calibration": True}},
-        "each wheel's gain estimated on line from the measured speed and yaw rate, and "
-        "the commands divided by it",
     ),
 )
 

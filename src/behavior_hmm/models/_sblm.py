@@ -208,10 +208,12 @@ class SBLM(LearnedBehavior):
         speed and yaw rate and divides the commands by them
         (:class:`~behavior_hmm.runtime.WheelCalibration`; the wheels' difference only):
         a robot whose wheels answer differently from the demonstrated one's (a motor
-        gain mismatch) drives as the behavior asks. Needs a robot that measures
-        ``linear_velocity`` and ``angular_velocity`` and declares its wheel geometry;
-        elsewhere it is off, with a warning. Off in both presets (an option,
-        docs/reliability.md).
+        gain mismatch) drives as the behavior asks; a difference within the readings'
+        noise is left alone. Needs demonstrations with left/right wheel commands and
+        measured ``linear_velocity`` and ``angular_velocity`` (``wheel_response_``;
+        without them it is off, silently: an arm, a pen), and a robot that measures
+        those and declares its wheel geometry (elsewhere it is off, with a warning).
+        Thesis: off (docs/reliability.md).
     recover
         If true, a run whose filtered readings leave the demonstrations (farther from
         every observation category's prototype than twice ``reach_radius_``, the
@@ -316,7 +318,7 @@ class SBLM(LearnedBehavior):
         goal_braking: bool = True,
         learn_corrections: bool = True,
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
-        wheel_calibration: bool = False,
+        wheel_calibration: bool = True,
         recover: bool = False,
         counting: str = "changes",
         smoothing: float = 0.0,
