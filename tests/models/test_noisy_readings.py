@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 import numpy as np
+import pytest
 
 from behavior_hmm.models import CBLM, SBLM
 
@@ -76,3 +77,47 @@ def test_the_components_ask_the_complex_behavior_whether_the_readings_are_noisy(
     for a in np.linspace(-90.0, -30.0, 40):
         policy.step(_reading(float(a)))
     assert not any(child._noisy() for child in children)
+
+
+def test_a_policy_started_at_values_filters_from_them(turn_model: SBLM) -> None:
+    policy = turn_model.policy({"angle": 0.0})
+
+    def first_filtered(values: dict[str, float]) -> float:
+        policy.reset()
+        policy.start_at(values)
+        return float(policy._pipe.step(np.array([30.0]))[0]) * 180.0  # bearing, deg
+
+    # from its steady state at 10 deg, a 2 Hz filter moves a fraction of the way to 30
+    assert 10.0 < first_filtered({"angle": 10.0}) < 11.0
+    # nothing to start at: the filter starts at its first reading, as after reset
+    assert first_filtered({}) == pytest.approx(30.0)
+    assert first_filtered({"angle": math.nan}) == pytest.approx(30.0)
+
+
+def test_a_component_starts_filtering_where_the_complex_behavior_is(
+    ta_model: CBLM, monkeypatch: Any
+) -> None:
+    """A component started on noisy readings takes the complex behavior's filtered
+    readings as its filters' start, not its first raw reading; on clean readings it
+    starts as before."""
+    from behavior_hmm.models._policy import GoalTracking
+    from behavior_hmm.sim import make_env
+
+    starts: list[dict[str, float]] = []
+    original = GoalTracking.start_at
+
+    def start_at(self: GoalTracking, values: dict[str, float]) -> None:
+        starts.append(dict(values))
+        original(self, values)
+
+    monkeypatch.setattr(GoalTracking, "start_at", start_at)
+    env = make_env("kinematic")
+    start = {"angle": -120.0, "distance": 0.5}
+    clean = ta_model.generate(env, start=start, seed=0)
+    assert starts == [] and clean.component.count("approach") > 0
+    noisy = ta_model.generate(env, start=start, seed=0, noise=0.01)
+    # every component started once the noise is known (the approach after the turn
+    # first) starts from the complex behavior's filtered readings
+    handovers = sum(1 for a, b in itertools.pairwise(noisy.component) if a != b and b)
+    assert 0 < len(starts) <= handovers
+    assert abs(starts[0]["angle"]) < SIGMA_ANGLE  # the turn ended at 0 deg

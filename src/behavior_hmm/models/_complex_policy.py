@@ -903,6 +903,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
             child.renew(sub_goal, tolerance)  # as a new controller, without building one
             self._child = child
             self._child.reset()
+            if self._noisy() and readings_at_rest(self._reading):
+                # its filters start where this one's readings are (filtered, or their
+                # mean at rest), not at one noisy reading
+                self._child.start_at(self._now)
             self._child.carry(self._last)
             self._active = comp
         # a component started while its goal still counts as reached runs this cycle only
@@ -953,7 +957,9 @@ class ComplexPolicy(GoalTracking, RateLimited):
             if verdict is None:
                 return self._idle(category, novel)
             if not verdict:
+                # the mean of the readings at rest: the repair starts from it
                 estimate = {**self._now, **self._confirmation.estimate}
+                self._now = estimate
                 return self._repair(estimate, self._reading, category, novel)
         return StepOutput(self._rest_command, category, novel, self._active, label, False, True)
 

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.data._channels import TOLERANCES, ChannelSpec, within_tolerance
-from behavior_hmm.data._filter import LowPassFilter
+from behavior_hmm.data._filter import LowPassFilter, OnlinePipeline
 from behavior_hmm.errors import ConfigError, UnreachableGoalError
 from behavior_hmm.models._confirm import NOISE_MIN, GoalConfirmation
 from behavior_hmm.runtime import DEFAULT_FAULT_HOLD_S, Trace, ordered_channels, run_policy
@@ -94,6 +94,24 @@ class GoalTracking:
     #: whether the readings are noisy, asked of the complex behavior that runs this
     #: policy (None: judged from this policy's own goal confirmation)
     noisy_readings: Callable[[], bool] | None
+    #: the readings' filter and normalization, and the channels it reads, in order
+    _pipe: OnlinePipeline
+    _channels: tuple[str, ...]
+
+    def start_at(self, values: Mapping[str, float]) -> None:
+        """Start the readings' filters at ``values`` (physical units; a channel missing
+        or not finite leaves them to start at the next reading, as after ``reset``).
+
+        A complex behavior hands a component its own filtered readings (or, after a
+        refuted goal, their mean at rest) when it starts it at rest on noisy readings:
+        started at one raw reading instead, the component's filter carries that reading's
+        noise into its first cycles (σ 3.6° on the bearing at noise 0.01, against about
+        1° filtered), and an approach started on a bearing it reads 5° off turns to
+        correct it.
+        """
+        x0 = [values.get(c, math.nan) for c in self._channels]
+        if all(math.isfinite(v) for v in x0):
+            self._pipe.reset(x0)
 
     def _keeps_noise(self) -> bool:
         """Whether this policy records the readings' noise: it may confirm its goal."""
