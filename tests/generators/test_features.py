@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK, FeatureLayout
+from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK, FeatureLayout, OnlineFeatures
 from behavior_hmm.teach import collect
 
 
@@ -72,3 +72,19 @@ def test_default_onset_clock_covers_the_start_up_ramps(
         ramps.append(int(np.argmax(speed >= 0.9 * speed.max())))  # cycles to 90 % of peak
     assert max(ramps) > 64  # turn 73, approach 95: a 64-cycle clock saturated mid-ramp
     assert max(ramps) <= DEFAULT_ONSET_CLOCK
+
+
+def test_a_resumed_clock_goes_on_from_where_it_stopped() -> None:
+    layout = FeatureLayout(n_channels=1, window=2, clock=8)
+    features = OnlineFeatures(layout)
+    features.push(np.array([0.3]))
+    for _ in range(5):
+        features.row()
+    assert features.cycles == 5
+    features.reset()
+    assert features.cycles == 0 and features.row()[-1] == 0.0  # a new start
+    features.reset()
+    features.resume(5)
+    assert features.row()[-1] == pytest.approx(5 / 8)  # the run goes on
+    features.resume(30)
+    assert features.row()[-1] == 1.0  # saturated

@@ -575,3 +575,49 @@ def test_a_nested_complex_component_leaves_confirming_to_its_parent(nested: CBLM
     policy = nested.policy(None)
     assert policy._confirms and policy.confirm_goal
     assert all(not child.confirm_goal for child in policy._children.values())
+
+
+def test_the_component_run_again_resumes_its_onset_clock(ta_model: CBLM) -> None:
+    """A component the complex behavior runs again right after it (a repair toward a
+    tighter goal) goes on with its generators' onset clock: the robot is where that run
+    left it, not at a start. Another component starts its clock at 0."""
+    policy = ta_model.policy(None)
+    policy.reset()
+    # on the bearing, 0.4 m off: the approach runs (open loop: the readings stay)
+    reading = {"angle": 0.0, "distance": 0.4, "angular_velocity": 0.0, "linear_velocity": 0.0}
+    for _ in range(40):
+        out = policy.step(reading)
+    assert out.component == "approach"
+    active = policy._active
+    ran = policy._child.onset_cycles
+    assert ran > 20
+    goal = dict(policy._child.goal)
+    policy._start(active, goal, reading, out.observation, False, renew=True, tolerance=0.5)
+    assert policy._child.onset_cycles == ran + 1  # one more cycle, from where it was
+    other = next(k for k in policy._children if k != active)
+    other_goal = dict(ta_model.components_[other].default_goal_)
+    policy._start(other, other_goal, reading, out.observation, False, renew=True)
+    assert policy._child.onset_cycles <= 1  # a start
+
+
+def test_no_pause_after_a_component_that_ran_on_the_noise(ta_model: CBLM) -> None:
+    """On noisy readings a component whose commands moved none of its goal channels by
+    their tolerance hands over without the teacher's pause; one that moved pauses, and
+    on clean readings every component does."""
+    reading = {"angle": -60.0, "distance": 0.4, "angular_velocity": 0.0, "linear_velocity": 0.0}
+
+    def pause_after(cycles: int, noisy: bool) -> int:
+        policy = ta_model.policy(None)
+        policy.reset()
+        for _ in range(cycles):
+            out = policy.step(reading)  # open loop: the turn runs
+        assert out.component == "turn"
+        policy._noisy = lambda: noisy  # type: ignore[method-assign]
+        policy._hand_back(at_rest=True)
+        return int(policy._pause_left)
+
+    handover = int(ta_model.policy(None)._handover)
+    assert handover > 0
+    assert pause_after(1, noisy=False) == handover
+    assert pause_after(1, noisy=True) == 0  # it has not moved the bearing yet
+    assert pause_after(80, noisy=True) == handover  # it turned: the teacher's pause

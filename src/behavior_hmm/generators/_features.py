@@ -167,6 +167,16 @@ class OnlineFeatures:
         self._started = False
         self._k = 0
 
+    @property
+    def cycles(self) -> int:
+        """Control cycles the onset clock has counted since the run's start."""
+        return self._k
+
+    def resume(self, cycles: int) -> None:
+        """Go on counting the onset clock from ``cycles`` (after :meth:`reset`): the run
+        resumes where it stopped instead of starting anew."""
+        self._k = int(cycles)
+
     def set_goal(self, goal: FloatArray) -> None:
         """The goal values (normalized) written into every row."""
         self._row[self._n : self._n + self.layout.goal] = goal

@@ -553,6 +553,19 @@ class ComplexPolicy(GoalTracking, RateLimited):
         self._limit_reset()
 
     @property
+    def onset_cycles(self) -> int:
+        """0: a complex behavior has no onset clock (its components keep their own)."""
+        return 0
+
+    def moved_within_tolerance(self) -> bool:
+        """False: a complex behavior run as a component keeps the pause after it."""
+        return False
+
+    def resume_onset(self, cycles: int) -> None:
+        """Nothing to resume: a complex behavior run again as a component of another
+        starts its components anew (see :meth:`SimplePolicy.resume_onset`)."""
+
+    @property
     def phase(self) -> Phase:
         """The run state now (see :class:`Phase`)."""
         return self._phase
@@ -900,6 +913,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
         if changed:
             self._beside = self._wanted = -1  # another component: whatever ran beside stops
             child = self._children[comp]
+            # the component that ran last, run again: it resumes (its onset clock goes on)
+            elapsed = child.onset_cycles if comp == self._active else 0
             child.renew(sub_goal, tolerance)  # as a new controller, without building one
             self._child = child
             self._child.reset()
@@ -908,6 +923,8 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 # mean at rest), not at one noisy reading
                 self._child.start_at(self._now)
             self._child.carry(self._last)
+            if elapsed:
+                self._child.resume_onset(elapsed)
             self._active = comp
         # a component started while its goal still counts as reached runs this cycle only
         self._phase = Phase.CHOOSING if comp in self._finished else Phase.RUNNING
@@ -916,11 +933,18 @@ class ComplexPolicy(GoalTracking, RateLimited):
     def _hand_back(self, at_rest: bool) -> None:
         """The running component reached its goal: PAUSED (it ended at rest) or CHOOSING."""
         self._finished[self._active] = dict(self._child.goal)
-        if at_rest and self._beside < 0:  # the teacher's pause at a switch
+        if at_rest and self._beside < 0 and not self._stayed():  # the teacher's pause
             self._pause_left = self._handover
         self._phase = Phase.PAUSED if self._pause_left > 0 else Phase.CHOOSING
         self._handed_back = True
         self._committed = False
+
+    def _stayed(self) -> bool:
+        """Whether the component that ends ran only on the readings' noise: they are
+        noisy, and its commands moved none of its goal channels by their tolerance. The
+        teacher pauses after a component it needed; after this one the next starts at once.
+        Clean readings keep every pause (a turn of 0.5 deg is the teacher's too)."""
+        return self._noisy() and self._child.moved_within_tolerance()
 
     def _skip(self) -> FloatArray:
         """The running component cannot reach its goal from here: CHOOSING, and the rest command.

@@ -415,10 +415,28 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prior = self._log_pi
         self._features.reset()
         self._generator.reset()
+        self._travel = np.zeros(len(self._channels))
         self._limit_reset()
         self._brake_reset()
         self._returning = False
         self._arrival_reset()
+
+    @property
+    def onset_cycles(self) -> int:
+        """Control cycles the generators' onset clock has counted in this run."""
+        return self._features.cycles
+
+    def resume_onset(self, cycles: int) -> None:
+        """After :meth:`reset`, let the generators' onset clock go on from ``cycles``.
+
+        A complex behavior that runs the same component again right after it (a repair
+        toward a tighter goal, a goal undone) resumes it: the robot is where that
+        component's run left it, not at rest where its demonstrations began. Restarted
+        at 0, the clock reads as a start, and a start this close to the goal lies
+        outside the demonstrations (the nearest began 0.1 m off): the approach, resumed
+        8.6 mm short of the object to close 4 mm, first backed away 2.6 cm.
+        """
+        self._features.resume(cycles)
 
     def _arrival_reset(self) -> None:
         """Forget the goal arrival's state: nothing moved yet, no closing in progress."""
@@ -513,12 +531,32 @@ class SimplePolicy(GoalTracking, RateLimited):
 
         The model's ``command_rate_limit`` bounds the change per cycle (see RateLimited).
         """
+        out = self._step(reading)
+        if self._command_rates is not None:  # how far the commands moved the inputs
+            self._travel = self._travel + out.command @ self._command_rates
+        return out
+
+    def _step(self, reading: Mapping[str, float]) -> StepOutput:
         if self._stopping is not None:  # ramping down at the goal
             return self._limited(self._stopping)
         out = self._decide(reading)
         if not self._brakes or out.done:
             return self._limited(out)
         return self._braked(out)
+
+    def moved_within_tolerance(self) -> bool:
+        """Whether this run's commands moved every goal channel by less than its
+        tolerance, by the learned ``command_rates_`` (so the readings' noise does not
+        enter); False for a model file without them.
+
+        A complex behavior's component that ran on a noisy reading of a goal already
+        held did not move the robot: turn & approach from 0.72 deg off, noise 0.01, read
+        the bearing 4.9 deg off at its first cycle, turned 0.7 deg, and then paused as
+        the teacher pauses after its turns (24 cycles) before it approached.
+        """
+        if self._command_rates is None:
+            return False
+        return all(abs(float(self._travel[i])) < tol for i, _, _, tol in self._brake_slots)
 
     def _braked(self, out: StepOutput) -> StepOutput:
         """Goal braking: ramp to rest when arriving any later would overshoot the goal.
