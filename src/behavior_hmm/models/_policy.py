@@ -373,6 +373,8 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
         self._command_rates = None if learned is None else np.asarray(learned, dtype=np.float64)
+        #: how far this run's commands moved each input (``command_rates_`` units x cycles)
+        self._travel = np.zeros(len(self._channels))
         self._recover = bool(getattr(model, "recover", False))
         if self._recover:
             self._set_recovery(model)
