@@ -29,6 +29,7 @@ from behavior_hmm.teach import collect
 from behavior_hmm.viz._data_efficiency import (
     FIGURE_NAME,
     fraction_text,
+    plot_data_efficiency,
     write_data_efficiency_report,
 )
 
@@ -359,6 +360,20 @@ def test_the_report(tmp_path: Path) -> None:
     # the one cell scored on half the grid's command scale is named
     note = table.strip().splitlines()[-1]
     assert note.endswith(": turn 1/8 seed 1 (0.50 of 1.00)."), note
+
+
+def test_one_fraction_still_draws_its_floor() -> None:
+    """A run of one fraction (``--fractions 0.25``) draws the all-zero floor as a visible
+    line across its one point, not a zero-length one."""
+    results = _hand_made()
+    results["cells"] = [c for c in results["cells"] if c["fraction"] == 0.125]
+    results["summary"] = summarize(results["cells"])
+    results["fractions"] = [0.125]
+    fig = plot_data_efficiency(results)
+    (line,) = [ln for ln in fig.axes[0].get_lines() if ln.get_label() == "all-zero floor"]
+    xs = np.asarray(line.get_xdata(), dtype=float)
+    assert xs.max() > xs.min()  # a segment, not a point
+    assert np.allclose(np.asarray(line.get_ydata(), dtype=float), 40.5)
 
 
 def test_fraction_text() -> None:

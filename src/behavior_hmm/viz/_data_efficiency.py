@@ -186,7 +186,10 @@ def plot_data_efficiency(results: Mapping[str, Any]) -> Figure:
                 **_STYLES[learner],
             )
         floor = np.array([r["zero_floor"] for r in rows])
-        ax.plot(x, floor, ":", color="grey", linewidth=1.2, label="all-zero floor")
+        # drawn across the plotted range: one fraction alone would be a zero-length line
+        floor_x = np.r_[x[0] / 1.3, x, x[-1] * 1.3] if x.size == 1 else x
+        floor_y = np.r_[floor[0], floor, floor[-1]] if x.size == 1 else floor
+        ax.plot(floor_x, floor_y, ":", color="grey", linewidth=1.2, label="all-zero floor")
         low = min(low, float(np.min(floor)))
         if info.get("thesis") is not None:
             thesis = float(info["thesis"])
