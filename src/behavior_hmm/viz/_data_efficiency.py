@@ -32,6 +32,8 @@ TASK_LABELS: Final[dict[str, str]] = {
 
 #: File name of the figure in the output folder.
 FIGURE_NAME: Final[str] = "data_efficiency.png"
+#: Factor of margin either side of the plotted demonstration counts (log x axis).
+_X_MARGIN: Final[float] = 1.35
 
 
 def fraction_text(fraction: float) -> str:
@@ -186,9 +188,9 @@ def plot_data_efficiency(results: Mapping[str, Any]) -> Figure:
                 **_STYLES[learner],
             )
         floor = np.array([r["zero_floor"] for r in rows])
-        # drawn across the plotted range: one fraction alone would be a zero-length line
-        floor_x = np.r_[x[0] / 1.3, x, x[-1] * 1.3] if x.size == 1 else x
-        floor_y = np.r_[floor[0], floor, floor[-1]] if x.size == 1 else floor
+        floor_x, floor_y = x, floor
+        if x.size == 1:  # one fraction: across the plotted range, not a zero-length line
+            floor_x, floor_y = x[0] * np.array([1.0 / _X_MARGIN, _X_MARGIN]), np.repeat(floor, 2)
         ax.plot(floor_x, floor_y, ":", color="grey", linewidth=1.2, label="all-zero floor")
         low = min(low, float(np.min(floor)))
         if info.get("thesis") is not None:
@@ -207,7 +209,7 @@ def plot_data_efficiency(results: Mapping[str, Any]) -> Figure:
         ax.set_xticks(list(ticks))
         ax.set_xticklabels([f"{n}\n({', '.join(f)})" for n, f in ticks.items()], fontsize=8)
         ax.minorticks_off()
-        ax.set_xlim(x.min() / 1.35, x.max() * 1.35)
+        ax.set_xlim(x.min() / _X_MARGIN, x.max() * _X_MARGIN)
         ax.set_xlabel(f"demonstrations (of {info['grid_size']} grid starts)")
         title = f"{TASK_LABELS.get(task, task)} {{{', '.join(info['inputs'])}}}"
         if info.get("thesis") is not None:
