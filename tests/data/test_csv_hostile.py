@@ -290,3 +290,11 @@ def test_a_long_starts_cell_is_echoed_cut(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match="not a number") as caught:
         read_starts(path)
     assert len(str(caught.value)) < 400
+
+
+def test_a_line_break_quoted_in_a_starts_cell_stays_on_the_messages_line(tmp_path: Path) -> None:
+    path = tmp_path / "starts.csv"
+    path.write_text('angle,distance\n"0\n0', encoding="utf-8")  # found by hypothesis above
+    with pytest.raises(DatasetError, match=r"not a number: '0\\n0'") as caught:
+        read_starts(path)
+    assert "\n" not in str(caught.value)

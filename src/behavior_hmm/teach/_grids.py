@@ -21,7 +21,10 @@ _SHOWN_CHARS = 80
 
 
 def _cell(text: str) -> str:
-    return text if len(text) <= _SHOWN_CHARS else text[:_SHOWN_CHARS] + "..."
+    """A cell for a one-line error message: a character that does not print (a line
+    break inside a quoted cell) escaped as ``repr`` writes it, cut to ``_SHOWN_CHARS``."""
+    shown = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return shown if len(shown) <= _SHOWN_CHARS else shown[:_SHOWN_CHARS] + "..."
 
 
 def default_starts(behavior: str) -> list[Start]:
