@@ -621,3 +621,14 @@ def test_no_pause_after_a_component_that_ran_on_the_noise(ta_model: CBLM) -> Non
     assert pause_after(1, noisy=False) == handover
     assert pause_after(1, noisy=True) == 0  # it has not moved the bearing yet
     assert pause_after(80, noisy=True) == handover  # it turned: the teacher's pause
+
+
+def test_mirror_counts_every_demonstration_and_its_image(ta_model: CBLM) -> None:
+    starts = [{"distance": 0.4, "angle": a} for a in (-60.0, 100.0)]
+    data = collect("turn-approach", starts, sim="kinematic", seed=0)
+    plain = CBLM(list(ta_model.components_), inputs=("distance", "angle")).fit(data)
+    both = CBLM(list(ta_model.components_), inputs=("distance", "angle"), mirror=True).fit(data)
+    assert plain.hmm_.to_arrays()["start_counts"].sum() == len(data)
+    assert both.hmm_.to_arrays()["start_counts"].sum() == 2 * len(data)
+    # the image of the turn from -60 deg starts where a turn from +60 deg would
+    assert both.observations_.n_categories_ > plain.observations_.n_categories_

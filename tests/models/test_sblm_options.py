@@ -158,3 +158,36 @@ def test_shared_generator_init_starts_every_network_from_one(
         SBLM(**params, generator_network="elman", hidden=5, generator_init="shared").fit(turn_data)
     with pytest.raises(ConfigError, match="generator_init must be one of random, shared"):
         SBLM(**params, generator_init="warm").check_params()
+
+
+def test_mirror_images_teach_the_turns_never_shown() -> None:
+    """Shown only turns to the left, a model with ``mirror`` turns right as well as left:
+    the images of the demonstrations are the turns from the other side."""
+    from behavior_hmm.evaluate._protocol import evaluate_model
+    from behavior_hmm.teach import collect
+
+    starts = [{"angle": a, "distance": 0.5} for a in (30.0, 60.0, 90.0, 120.0, 150.0, 180.0)]
+    left_only = collect("turn", starts, sim="kinematic", seed=0)
+    tests = [{"angle": a} for a in (-150.0, -100.0, -45.0, -20.0)]
+    scores = {}
+    for mirror in (False, True):
+        model = SBLM(inputs=("angle",), mirror=mirror, random_state=0).fit(left_only)
+        result = evaluate_model(model, tests, sim="kinematic", seed=0)
+        scores[mirror] = (float(result["success_rate_mean"]), int(result["goal_reached"]))
+    assert scores[True][1] == len(tests)
+    # the images' turns follow the teacher's from the other side (88 % against 69 %)
+    assert scores[True][0] > scores[False][0] + 10.0
+    assert len(model.stops_) == 2 * len(left_only)  # it learned from each and its image
+
+
+def test_mirror_refuses_a_channel_without_an_image(turn_data: Dataset) -> None:
+    from behavior_hmm.data import ChannelSpec
+
+    ir = ChannelSpec("ir0", "m", (0.0, 0.1))
+    columns = dict(turn_data.to_columns())
+    columns["ir0"] = np.full(turn_data.n_samples, 0.05)
+    data = Dataset(columns, {**turn_data.metadata, "channels": [ir.to_metadata()]})
+    with pytest.raises(ConfigError, match="channel 'ir0' declares no mirror"):
+        SBLM(inputs=("angle",), epochs=1, mirror=True).fit(data)
+    with pytest.raises(ConfigError, match="mirror must be true or false"):
+        SBLM(inputs=("angle",), epochs=1, mirror="yes").fit(turn_data)  # type: ignore[arg-type]

@@ -36,6 +36,7 @@ from behavior_hmm.data._filter import (
     SignalPipeline,
 )
 from behavior_hmm.data._lerobot import export_lerobot, import_lerobot
+from behavior_hmm.data._mirror import mirror_map, mirrored
 from behavior_hmm.data._normalize import CommandScaler, Normalizer
 from behavior_hmm.data._parquet import METADATA_KEY, read, write
 from behavior_hmm.data._summary import summarize
@@ -98,6 +99,8 @@ __all__ = [
     "import_bags",
     "import_csv",
     "import_lerobot",
+    "mirror_map",
+    "mirrored",
     "noise_std",
     "read",
     "register_channel",

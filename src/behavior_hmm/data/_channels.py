@@ -28,6 +28,8 @@ CONTROL_PERIOD: Final[float] = 0.016
 
 _RPM: Final[float] = 2.0 * math.pi / 60.0
 _DEG: Final[float] = math.pi / 180.0
+#: What a channel's ``mirror`` may say besides another channel's name.
+MIRROR_PARITIES: Final[tuple[str, ...]] = ("even", "odd")
 #: A channel name: a lowercase identifier.
 CHANNEL_NAME: Final[re.Pattern[str]] = re.compile(r"[a-z][a-z0-9_]{0,63}\Z")
 
@@ -64,6 +66,13 @@ class ChannelSpec:
     rest
         For a command channel: the command that holds the robot still (wheels: 0 rad/s),
         sent whenever a run stops.
+    mirror
+        What the channel reads in the robot's left–right mirror image: ``"even"`` (the
+        same: a distance, a speed forward), ``"odd"`` (negated: a bearing, a yaw rate)
+        or the name of the channel it trades places with (the left wheel's command is
+        the right wheel's); ``None``: not declared, so demonstrations holding it cannot
+        be mirrored (``mirror=True`` of a model, :func:`behavior_hmm.data.mirrored`).
+        Not part of equality: it adds to what a channel means, it does not change it.
     """
 
     name: str
@@ -76,6 +85,7 @@ class ChannelSpec:
     units: Mapping[str, float] = field(default_factory=dict)
     label: str = ""
     rest: float = 0.0
+    mirror: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not CHANNEL_NAME.match(self.name):
@@ -115,6 +125,15 @@ class ChannelSpec:
         if not math.isfinite(rest):
             raise ConfigError(f"channel {self.name}: rest must be finite, got {rest}")
         object.__setattr__(self, "rest", rest)
+        if self.mirror is not None and (
+            not isinstance(self.mirror, str)
+            or not (self.mirror in MIRROR_PARITIES or CHANNEL_NAME.match(self.mirror))
+            or self.mirror == self.name
+        ):
+            raise ConfigError(
+                f"channel {self.name}: mirror must be 'even', 'odd' or the name of another "
+                f"channel it trades places with, got {self.mirror!r}"
+            )
 
     @property
     def axis_label(self) -> str:
@@ -141,6 +160,8 @@ class ChannelSpec:
             out["label"] = self.label
         if self.rest != 0.0:
             out["rest"] = self.rest
+        if self.mirror is not None:
+            out["mirror"] = self.mirror
         return out
 
 
@@ -153,6 +174,7 @@ _SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-0.5, 10.0),
         units={"cm": 1e-2, "mm": 1e-3},
         label="distance to the object",
+        mirror="even",
     ),
     ChannelSpec(
         "linear_velocity",
@@ -162,6 +184,7 @@ _SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-5.0, 5.0),
         units={"cm/s": 1e-2, "mm/s": 1e-3},
         label="linear velocity",
+        mirror="even",
     ),
     ChannelSpec(
         "angle",
@@ -171,6 +194,7 @@ _SPECS: tuple[ChannelSpec, ...] = (
         wraps=True,
         units={"rad": 180.0 / math.pi},
         label="bearing of the object",
+        mirror="odd",
     ),
     ChannelSpec(
         "angular_velocity",
@@ -180,6 +204,7 @@ _SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-3600.0, 3600.0),
         units={"rad/s": 180.0 / math.pi},
         label="angular velocity",
+        mirror="odd",
     ),
     ChannelSpec(
         "left",
@@ -189,6 +214,7 @@ _SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-1000.0, 1000.0),
         units={"rpm": _RPM, "deg/s": _DEG},
         label="left wheel",
+        mirror="right",
     ),
     ChannelSpec(
         "right",
@@ -198,6 +224,7 @@ _SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-1000.0, 1000.0),
         units={"rpm": _RPM, "deg/s": _DEG},
         label="right wheel",
+        mirror="left",
     ),
 )
 
@@ -219,6 +246,7 @@ _GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-360.0, 360.0),
         units={"rad": 180.0 / math.pi},
         label="arm angle (0 down)",
+        mirror="even",
     ),
     ChannelSpec(
         "fingers",
@@ -228,6 +256,7 @@ _GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-0.5, 0.5),
         units={"mm": 1e-3, "cm": 1e-2},
         label="finger opening",
+        mirror="even",
     ),
     ChannelSpec(
         "object_present",
@@ -236,6 +265,7 @@ _GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
         tolerance=0.5,
         bounds=(-1.0, 2.0),
         label="object between the fingers",
+        mirror="even",
     ),
     ChannelSpec(
         "arm_speed",
@@ -245,6 +275,7 @@ _GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-1000.0, 1000.0),
         units={"rad/s": 180.0 / math.pi},
         label="arm speed",
+        mirror="even",
     ),
     ChannelSpec(
         "finger_speed",
@@ -254,6 +285,7 @@ _GRIPPER_SPECS: tuple[ChannelSpec, ...] = (
         bounds=(-1.0, 1.0),
         units={"mm/s": 1e-3},
         label="finger speed",
+        mirror="even",
     ),
 )
 
@@ -357,7 +389,8 @@ def channel_from_metadata(entry: Mapping[str, Any]) -> ChannelSpec:
     """A channel declared in a dataset's metadata: ``{"name", "unit", "range", ...}``."""
     if not isinstance(entry, Mapping):
         raise ConfigError(f"a channel declaration must be a mapping, got {entry!r}")
-    unknown = set(entry) - {"name", "unit", "range", "kind", "tolerance", "wraps", "label", "rest"}
+    keys = {"name", "unit", "range", "kind", "tolerance", "wraps", "label", "rest", "mirror"}
+    unknown = set(entry) - keys
     if unknown:
         raise ConfigError(f"unknown key(s) {', '.join(sorted(unknown))} in channel {entry!r}")
     for key in ("name", "unit", "range"):
@@ -375,6 +408,7 @@ def channel_from_metadata(entry: Mapping[str, Any]) -> ChannelSpec:
         wraps=bool(entry.get("wraps", False)),
         label=str(entry.get("label", "")),
         rest=entry.get("rest", 0.0),
+        mirror=entry.get("mirror"),
     )
 
 
@@ -382,9 +416,12 @@ def known_or_declared(spec: ChannelSpec) -> ChannelSpec:
     """The registered channel of ``spec``'s name if ``spec`` declares it the same way
     (it then keeps its import units and bounds), else ``spec`` itself."""
     known = CHANNELS.get(spec.name)
-    if known is not None and known.to_metadata() == spec.to_metadata():
-        return known
-    return spec
+    if known is None or spec.mirror not in (None, known.mirror):
+        return spec
+    mine, theirs = spec.to_metadata(), known.to_metadata()
+    mine.pop("mirror", None)
+    theirs.pop("mirror", None)
+    return known if mine == theirs else spec
 
 
 def command_from_declaration(entry: ChannelSpec | Mapping[str, Any] | str) -> ChannelSpec:

@@ -91,6 +91,7 @@ class LearnedBehavior(Estimator):
         inputs, context = self._fit_setup(dataset)
         if not isinstance(dataset, Dataset):
             raise ConfigError(f"fit expects a behavior_hmm.data.Dataset, got {type(dataset)}")
+        dataset = self._as_learned(dataset)
         dataset, context = self._fit_rows(dataset, inputs, context)
         pipeline = SignalPipeline.for_dataset(dataset, inputs, getattr(self, "cutoff_hz", None))
         x = pipeline.transform(dataset)
@@ -106,6 +107,15 @@ class LearnedBehavior(Estimator):
         self._record_provenance(dataset)  # and channels_, the inputs' declarations
         self._fit_finish(dataset, x, inputs, raw, finals, context)
         return self
+
+    def _as_learned(self, dataset: Any) -> Any:
+        """The demonstrations as the model learns from them: with each one's mirror image
+        after it where ``mirror`` is set (:func:`behavior_hmm.data.mirrored`)."""
+        if not getattr(self, "mirror", False):
+            return dataset
+        from behavior_hmm.data import mirrored
+
+        return mirrored(dataset)
 
     def _fit_setup(self, dataset: Any) -> tuple[tuple[str, ...], Any]:
         """Fit step 1: check the parameters; the inputs and what later steps need."""
@@ -154,6 +164,9 @@ class LearnedBehavior(Estimator):
             raise ConfigError(
                 f"path_self_loops must be 'drop' or 'keep', got {self.path_self_loops!r}"
             )
+        mirror = getattr(self, "mirror", False)
+        if not isinstance(mirror, bool):
+            raise ConfigError(f"mirror must be true or false, got {mirror!r}")
         smoothing = self.smoothing
         if isinstance(smoothing, bool) or not isinstance(smoothing, int | float) or smoothing < 0:
             raise ConfigError(f"smoothing must be a number >= 0, got {smoothing!r}")

@@ -151,6 +151,10 @@ class CBLM(LearnedBehavior):
         ``a``'s goal error closed since ``b`` started (``b`` takes over as ``a``'s goal
         comes near); when the plan hands over to ``b`` it goes on without a restart.
         Demonstrations without such rows leave the model as sequential as the thesis's.
+    mirror
+        If true, also learn from every demonstration's left–right mirror image, as the
+        SBLM's ``mirror`` does (its components are fitted with their own). ``False``
+        (thesis, and the default): the demonstrations as given.
     random_state
         Seed (kept for symmetry; nothing random is drawn when fitting a CBLM).
 
@@ -214,6 +218,7 @@ class CBLM(LearnedBehavior):
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
         wheel_calibration: bool = True,
         parallel: bool = True,
+        mirror: bool = False,
         random_state: int = 0,
     ) -> None:
         self.components = components
@@ -237,6 +242,7 @@ class CBLM(LearnedBehavior):
         self.progress_limit = progress_limit
         self.wheel_calibration = wheel_calibration
         self.parallel = parallel
+        self.mirror = mirror
         self.random_state = random_state
 
     def check_params(self) -> None:
@@ -529,6 +535,7 @@ class CBLM(LearnedBehavior):
         names = [*self.names_, name]
         components = [*self.components_, model]
         k = len(self.names_)
+        dataset = self._as_learned(dataset)
         dataset, states, partners = _nominal_tagged(dataset, names)
         if not (states == k).any():
             raise ConfigError(f"the demonstrations never run the new component {name}")
