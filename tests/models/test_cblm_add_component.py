@@ -303,3 +303,14 @@ def _remetadata(dataset: Dataset, **meta: Any) -> Dataset:
 def _dense(table: Any) -> np.ndarray:
     """A count table as a dense array (B and C are sparse)."""
     return np.asarray(table.toarray() if hasattr(table, "toarray") else table)
+
+
+def test_a_mirrored_cblm_adds_each_new_demonstration_and_its_image(setup: dict[str, Any]) -> None:
+    d = setup["dir"]
+    parts = [SBLM.load(d / "turn.bhmm"), SBLM.load(d / "approach.bhmm")]
+    old_data, new_data = setup["old_data"], setup["new_data"]
+    model = CBLM(parts, mirror=True).fit(old_data.subset([0, 1, 2]))
+    before = model.hmm_.start_counts_.sum()
+    assert before == 6
+    model.add_component(SBLM.load(d / "retreat.bhmm"), new_data.subset([0, 1]))
+    assert model.hmm_.start_counts_.sum() == before + 4

@@ -306,3 +306,19 @@ def test_a_tampered_update_record_is_refused(
 def _dense(table: Any) -> np.ndarray:
     """A table as a dense array (B and C, counts and log probabilities, are sparse)."""
     return np.asarray(table.toarray() if hasattr(table, "toarray") else table)
+
+
+def test_a_mirrored_model_grows_by_each_new_demonstration_and_its_image(
+    turn_data: Dataset,
+) -> None:
+    """``mirror=True`` learns the images in ``partial_fit`` as in ``fit``: the replayed
+    demonstrations add two episodes each, and the images' turns to the other side."""
+    model = SBLM(inputs=("angle",), epochs=5, mirror=True, random_state=0).fit(turn_data)
+    assert model.hmm_.start_counts_.sum() == 2 * len(turn_data)
+    starts = model.hmm_.start_counts_.sum()
+    stops = len(model.stops_)
+    model.partial_fit(turn_data.subset([2, 9]))
+    assert model.hmm_.start_counts_.sum() == starts + 4
+    assert len(model.stops_) == stops + 4
+    finals = model.stops_[-4:, 0]
+    np.testing.assert_allclose(finals[1::2], -finals[0::2])  # each image ends mirrored
