@@ -160,7 +160,7 @@ def test_shared_generator_init_starts_every_network_from_one(
         SBLM(**params, generator_init="warm").check_params()
 
 
-def test_mirror_images_teach_the_turns_never_shown() -> None:
+def test_mirror_images_teach_the_turns_never_shown(tmp_path: Path) -> None:
     """Shown only turns to the left, a model with ``mirror`` turns right as well as left:
     the images of the demonstrations are the turns from the other side."""
     from behavior_hmm.evaluate._protocol import evaluate_model
@@ -178,6 +178,8 @@ def test_mirror_images_teach_the_turns_never_shown() -> None:
     # the images' turns follow the teacher's from the other side (88 % against 69 %)
     assert scores[True][0] > scores[False][0] + 10.0
     assert len(model.stops_) == 2 * len(left_only)  # it learned from each and its image
+    model.save(tmp_path / "mirror.bhmm")
+    assert SBLM.load(tmp_path / "mirror.bhmm").get_params()["mirror"] is True
 
 
 def test_mirror_refuses_a_channel_without_an_image(turn_data: Dataset) -> None:
