@@ -6,7 +6,7 @@ the right from −40°: the same run with the bearing and the yaw rate negated a
 wheels' commands traded. :func:`mirrored` adds that image of every demonstration; how a
 channel maps is declared once, with the channel (:attr:`ChannelSpec.mirror
 <behavior_hmm.data.ChannelSpec>`: ``"even"``, ``"odd"`` or the channel it trades places
-with). A model's ``mirror=True`` learns from both (docs/usage.md, "Few demonstrations").
+with). A model's ``mirror=True`` learns from both (docs/algorithms.md, "Mirror images").
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from behavior_hmm.data._channels import MIRROR_PARITIES, ChannelSpec, channel
+from behavior_hmm.data._channels import MIRROR_PARITIES, ChannelSpec
 from behavior_hmm.data._dataset import Dataset
 from behavior_hmm.data._units import wrap_degrees
 from behavior_hmm.errors import ConfigError
@@ -89,8 +89,7 @@ def mirrored(dataset: Dataset) -> Dataset:
     meta = dataset.metadata
     if meta.get(MIRRORED_KEY):
         raise ConfigError("these demonstrations are already mirrored")
-    declared = {spec.name: spec for spec in dataset.channel_specs}
-    specs = [declared.get(c) or channel(c) for c in dataset.sensor_channels]
+    specs = dataset.channel_specs
     images = mirror_map([*specs, *dataset.command_specs])
     wraps = {spec.name for spec in (*specs, *dataset.command_specs) if spec.wraps}
     cols = dataset.to_columns()
