@@ -179,3 +179,35 @@ def test_plan_states_are_the_viterbi_optimum_of_the_path(
             + hmm.log_B_.toarray()[states, obs].sum()
         )
         assert achieved == pytest.approx(best, abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    episodes=st.lists(
+        st.lists(st.tuples(st.integers(0, 3), st.integers(0, 7)), min_size=1, max_size=9),
+        min_size=1,
+        max_size=5,
+    ),
+    goals=st.lists(st.integers(0, 7), min_size=1, max_size=3),
+    smoothing=st.sampled_from([0.0, 0.1]),
+    on_impossible=st.sampled_from(["raise", "emissions"]),
+)
+def test_plannable_from_is_can_plan_toward_any_goal(
+    episodes: list[list[tuple[int, int]]], goals: list[int], smoothing: float, on_impossible: str
+) -> None:
+    states = [s for ep in episodes for s, _ in ep]
+    observations = [o for ep in episodes for _, o in ep]
+    hmm = BehaviorHMM(smoothing=smoothing, on_impossible=on_impossible)  # type: ignore[arg-type]
+    hmm.fit(states, observations, lengths=[len(ep) for ep in episodes])
+    goals = [g for g in goals if g < hmm.n_observations_] or [observations[-1]]
+    mask = hmm.plannable_from(goals)
+    expected = [any(hmm.can_plan(c, g) for g in goals) for c in range(hmm.n_observations_)]
+    assert mask.tolist() == expected
+
+
+def test_plannable_from_names_the_categories_a_plan_to_a_goal_starts_from() -> None:
+    # the approach (O_1) was only ever entered from the turn at O_C; every category
+    # leads to the grasp's end O_G, the one at 70 deg (O_FAR) by its own demonstration
+    hmm = complex_behavior_model()
+    assert hmm.plannable_from([O_G]).tolist() == [True, True, True, True, True]
+    assert hmm.plannable_from([O_1]).tolist() == [True, True, False, False, False]

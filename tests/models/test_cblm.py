@@ -632,3 +632,30 @@ def test_mirror_counts_every_demonstration_and_its_image(ta_model: CBLM) -> None
     assert both.hmm_.to_arrays()["start_counts"].sum() == 2 * len(data)
     # the image of the turn from -60 deg starts where a turn from +60 deg would
     assert both.observations_.n_categories_ > plain.observations_.n_categories_
+
+
+def test_an_unplannable_start_takes_the_best_matching_category_a_plan_starts_from(
+    ta_model: CBLM,
+) -> None:
+    """A start window whose best matches (here the first seven) have no plan to the goal
+    starts from the best-matching category that has one, however far down the ranking:
+    the runner-ups without a plan do not count against ``start_alternatives``."""
+    from types import SimpleNamespace
+
+    from behavior_hmm.errors import UnreachableGoalError
+
+    goal = {"distance": 0.4, "angle": 0.0}  # an approach cannot go back from 0.3 m
+    policy = ta_model.policy(goal)
+    policy.reset()
+    plannable = ta_model.hmm_.plannable_from(policy.goal_candidates)
+    dead, live = np.flatnonzero(~plannable), np.flatnonzero(plannable)
+    assert dead.size >= 7 and live.size >= 2
+    mismatch = np.ones(ta_model.hmm_.n_observations_)
+    mismatch[dead[:7]] = np.linspace(0.01, 0.07, 7)  # the seven best matches: no plan
+    mismatch[live[1]] = 0.08  # then one with a plan, then the rest
+    policy._live = SimpleNamespace(mismatch=mismatch)
+    assert ta_model.start_alternatives == 5
+    assert policy._plannable(int(dead[0])) == live[1]
+    policy._alternatives = 0  # the thesis: the goal is unreachable
+    with pytest.raises(UnreachableGoalError, match="no observation path"):
+        policy._plannable(int(dead[0]))

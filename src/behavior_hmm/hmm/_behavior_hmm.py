@@ -387,6 +387,28 @@ class BehaviorHMM(Estimator):
         g = self._check_observation(o_goal, "o_goal")
         return 0.0 - float(self._tree(g).cost[c])
 
+    def plannable_from(self, goals: Any) -> NDArray[np.bool_]:
+        """Which observation categories :meth:`plan` succeeds from toward any of ``goals``.
+
+        ``out[i]`` is ``can_plan(i, g)`` for some ``g`` in ``goals``: an observation path
+        leads from ``i`` to ``g`` and some state sequence explains it. Read off the goals'
+        cached trees and Viterbi messages (computed here where :meth:`prepare_goals` has
+        not). A controller whose start category has no plan picks among these, best
+        match first, instead of trying the categories one by one.
+        """
+        self._check_fitted()
+        self._sync_caches()
+        out = np.zeros(self.n_observations_, dtype=bool)
+        for goal in goals:
+            g = self._check_observation(int(goal), "goal")
+            nodes = np.flatnonzero(np.isfinite(self._tree(g).cost) & ~out).tolist()
+            if self.on_impossible == "raise":  # can_plan is exactly _decodable
+                ok = self._decoder(g).startable(nodes)
+            else:
+                ok = [self.can_plan(u, g) for u in nodes]
+            out[[u for u, yes in zip(nodes, ok, strict=True) if yes]] = True
+        return out
+
     def most_likely_path(self, o_current: Category, o_goal: Category) -> tuple[int, ...]:
         """Most likely observation path from ``o_current`` to ``o_goal`` (both included).
 

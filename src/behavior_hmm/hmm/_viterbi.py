@@ -545,6 +545,20 @@ class TreeViterbi:
         value = scores[np.arange(rows.shape[0]), arg] + np.asarray(log_b)
         return tuple(value.tolist()), next_support[arg].tolist()
 
+    def startable(self, nodes: Sequence[int]) -> list[bool]:
+        """Whether a decoding starts at each of ``nodes``: ``max(log π + V_node)`` is
+        finite (what :meth:`decode` needs; the nodes must reach the goal)."""
+        log_pi = self._log_pi
+        if self._dense:
+            return [bool(np.isfinite(np.max(log_pi + self._message(u)))) for u in nodes]
+        self.compute(nodes)
+        pi = log_pi.tolist()
+        support, value = self._support, self._value
+        return [
+            any(math.isfinite(pi[s] + v) for s, v in zip(support[u], value[u], strict=True))
+            for u in nodes
+        ]
+
     def _message(self, node: int) -> NDArray[np.float64]:
         """The dense message ``V_node`` (N,): ``-inf`` off its support.
 

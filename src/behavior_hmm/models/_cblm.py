@@ -105,7 +105,9 @@ class CBLM(LearnedBehavior):
         back, pausing at each switch (thesis: False, the plan's component runs).
     start_alternatives
         Runner-up categories of the start window tried when the best match has no
-        path to the goal (thesis: 0, the goal is unreachable).
+        path to the goal: the best-matching ones from which an observation path leads
+        to a goal category, so the nearest demonstrated place the goal was reached
+        from (thesis: 0, the goal is unreachable).
     command_rate_limit
         If > 0, the complex behavior's command may change per control cycle by at most
         this multiple of the largest change in its demonstrations (``delta_scale_``,

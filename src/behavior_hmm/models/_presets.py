@@ -208,7 +208,7 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
     Departure(
         "start_alternatives",
         {"CBLM": {"start_alternatives": 0}},
-        "an unplannable start category tries up to 5 runner-up categories",
+        "an unplannable start category tries up to 5 runner-up categories that lead to the goal",
     ),
     Departure(
         "wheel_calibration",
