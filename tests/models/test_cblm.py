@@ -108,6 +108,34 @@ def nested(cblm: CBLM, complex_data: Dataset) -> CBLM:
     return CBLM([cblm]).fit(tagged)
 
 
+def test_a_nested_complex_component_without_a_plan_is_skipped_not_restarted_elsewhere(
+    nested: CBLM, cblm: CBLM
+) -> None:
+    """Run alone, a CBLM whose start category has no plan to its goal starts from the
+    best-matching category that has one; run as a component it raises instead, so that
+    its parent skips it and its own plan picks the next component (a runner-up start
+    describes another place: nested position from 0 m started 0.2 m away and never
+    retreated)."""
+    from types import SimpleNamespace
+
+    from behavior_hmm.errors import UnreachableGoalError
+
+    goal = {"distance": 0.4, "angle": 0.0}
+    alone = cblm.policy(goal)
+    alone.reset()
+    child = nested.policy(None)._children[0]
+    child.renew(goal, 1.0)
+    child.reset()
+    plannable = cblm.hmm_.plannable_from(alone.goal_candidates)
+    dead, live = np.flatnonzero(~plannable), np.flatnonzero(plannable)
+    mismatch = np.ones(cblm.hmm_.n_observations_)
+    mismatch[dead[0]], mismatch[live[0]] = 0.01, 0.02
+    alone._live = child._live = SimpleNamespace(mismatch=mismatch)
+    assert alone._plannable(int(dead[0])) == live[0]
+    with pytest.raises(UnreachableGoalError):
+        child._plannable(int(dead[0]))
+
+
 def test_nested_cblm_generates(nested: CBLM, kinematic_env: Any) -> None:
     trace = nested.generate(kinematic_env, start={"angle": 80.0, "distance": 0.5}, seed=0)
     assert set(trace.component[:-1]) <= {"turn", "approach"}

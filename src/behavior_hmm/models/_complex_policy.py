@@ -501,6 +501,12 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 child.start_confirm_cycles = 0
             if hasattr(child, "confirm_goal"):  # and confirms its own goal at the end
                 child.confirm_goal = False
+            if isinstance(child, ComplexPolicy):
+                # a complex component with no plan to its intermediate goal from where the
+                # robot is gets skipped, and this plan picks the next: a runner-up start of
+                # its own describes another place (nested position from 0 m: one 0.2 m
+                # away, whose plan approached and never retreated)
+                child._alternatives = 0
         rate = float(getattr(model, "command_rate_limit", 0.0))
         self._rate = rate * float(getattr(model, "delta_scale_", 0.0))
         # per command channel: the step limit in each channel's own scale (wheels: equal)
