@@ -28,7 +28,12 @@ from behavior_hmm.data._channels import (
 )
 from behavior_hmm.errors import ConfigError, ModelFileError, NotFittedError
 from behavior_hmm.models import _modelfile
-from behavior_hmm.models._goals import best_goal_category, check_goal, goal_candidates
+from behavior_hmm.models._goals import (
+    best_goal_category,
+    check_goal,
+    goal_candidates,
+    goal_fallbacks,
+)
 from behavior_hmm.runtime import Policy, Trace
 
 
@@ -467,11 +472,27 @@ class LearnedBehavior(Estimator):
         robot is: with fine categories, several categories describe being at the goal
         (reached from different sides), and the best match may lie on another branch.
         """
-        window = self.goal_window(goal)
+        window, latest, at_goal = self._goal_readings(goal)
         scores = self.observations_.score_window(window)
+        return goal_candidates(scores, self.hmm_.C_counts_, latest, at_goal, limit)
+
+    def goal_fallback_categories(
+        self, goal: Mapping[str, float], limit: int = 64
+    ) -> NDArray[np.int64]:
+        """Categories near the goal a simple behavior plans to when no goal category is
+        reachable, nearest first (see :func:`goal_fallbacks`)."""
+        _, latest, at_goal = self._goal_readings(goal)
+        return goal_fallbacks(self.hmm_.C_counts_, latest, at_goal, limit)
+
+    def _goal_readings(
+        self, goal: Mapping[str, float]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The still window at ``goal``, every prototype's latest reading on the goal's
+        channels and the goal on them (normalized)."""
+        window = self.goal_window(goal)
         columns = [self.inputs_.index(c) for c in goal]
         latest = self.observations_.prototypes_[:, -1, :][:, columns]
-        return goal_candidates(scores, self.hmm_.C_counts_, latest, window[-1, columns], limit)
+        return window, latest, window[-1, columns]
 
 
 #: Default ``progress_limit`` of SBLMs and CBLMs: a run that still closes in on its goal at

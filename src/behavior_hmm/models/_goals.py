@@ -111,6 +111,40 @@ def best_goal_category(scores: np.ndarray, c_counts: csr_array) -> int:
 GOAL_VALUE_MARGIN = 0.05
 
 
+#: Largest RMS difference (normalized units) between a goal and the latest reading of a
+#: category a simple behavior plans to when no candidate goal category is reachable
+#: from where the robot is (:func:`goal_fallbacks`): about 36 deg or 12 cm.
+FALLBACK_MARGIN = 4.0 * GOAL_VALUE_MARGIN
+
+
+def goal_gaps(latest: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """RMS difference of each prototype's latest reading ``(K, G)`` from ``goal`` ``(G,)``."""
+    diff = np.asarray(latest) - np.asarray(goal)[None, :]
+    return np.asarray(np.sqrt(np.mean(diff**2, axis=1)))
+
+
+def goal_fallbacks(
+    c_counts: csr_array, latest: np.ndarray, goal: np.ndarray, limit: int = 64
+) -> np.ndarray:
+    """Categories near the goal to plan to when no candidate goal category is reachable.
+
+    The entered categories whose prototype ends beyond ``GOAL_VALUE_MARGIN`` but within
+    ``FALLBACK_MARGIN`` of the goal on the goal's channels, nearest first. The robot is
+    stopped at the goal by its physical tolerance (goal braking, the stop rule), not by
+    the category: a plan to a category just past the goal carries it through the goal.
+    Needed where the categories that end nearer were only ever entered from elsewhere:
+    a retreat learned with mirror images has two start-at-rest categories entered from
+    each other that best match goals at 0.31 and 0.70 m, while its moving categories
+    end 3-4 cm from them.
+
+    Parameters are those of :func:`goal_candidates`.
+    """
+    gap = goal_gaps(latest, goal)
+    entered = entered_categories(c_counts)
+    out = np.flatnonzero((gap > GOAL_VALUE_MARGIN) & (gap <= FALLBACK_MARGIN) & entered)
+    return out[np.argsort(gap[out], kind="stable")][:limit].astype(np.int64)
+
+
 def goal_candidates(
     scores: np.ndarray,
     c_counts: csr_array,
@@ -140,7 +174,7 @@ def goal_candidates(
     """
     best = best_goal_category(scores, c_counts)
     entered = entered_categories(c_counts)
-    gap = np.sqrt(np.mean((np.asarray(latest) - np.asarray(goal)[None, :]) ** 2, axis=1))
+    gap = goal_gaps(latest, goal)
     near = np.flatnonzero((gap <= GOAL_VALUE_MARGIN) & entered)
     near = near[np.argsort(gap[near], kind="stable")]
     out = [best] + [int(k) for k in near if k != best]

@@ -169,6 +169,23 @@ class GoalTracking:
         self.goal_category = int(candidate)
         self._stop_set = self._goal_set
 
+    @property
+    def goal_fallbacks(self) -> NDArray[np.int64]:
+        """The categories near the goal planned to when no goal candidate is reachable
+        (``model.goal_fallback_categories``, computed on first use: rarely needed)."""
+        memo: dict[tuple[tuple[str, float], ...], NDArray[np.int64]]
+        memo = self.__dict__.setdefault("_fallback_memo", {})
+        key = tuple(self.goal.items())
+        if key not in memo:
+            memo[key] = self.model.goal_fallback_categories(self.goal)
+        return memo[key]
+
+    def aim_near(self, fallback: int) -> None:
+        """Aim at ``fallback``, a category near the goal (retarget): the run stops in it
+        or in any goal candidate, within the physical tolerance."""
+        self.goal_category = int(fallback)
+        self._stop_set = self._goal_set | {int(fallback)}
+
     def renew(self, goal: Mapping[str, float] | None, tolerance: float) -> None:
         """Aim at a new goal with the state a new controller would have after ``reset()``.
 
@@ -690,7 +707,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         if self._recognize:
             self._prim_live.update(x)
         if category != self._reachable_from:
-            retarget(self, self._hmm, category, may_raise=not self._started)
+            # before any motion, a goal no candidate category is reachable for is planned
+            # toward a category near it; mid-run the current primitive goes on instead
+            start = not self._started
+            retarget(self, self._hmm, category, may_raise=start, near=start)
         now = self._now(x)
         if self._keeps_noise():
             self._confirmation.observe(reading, self.goal)
@@ -846,16 +866,25 @@ def readings_at_rest(reading: Mapping[str, float]) -> bool:
 
 
 def retarget(
-    controller: Any, hmm: Any, category: int, *, may_raise: bool, most_likely: bool = False
+    controller: Any,
+    hmm: Any,
+    category: int,
+    *,
+    may_raise: bool,
+    most_likely: bool = False,
+    near: bool = False,
 ) -> None:
     """Keep ``controller.goal_category`` reachable from ``category``.
 
     When no observation path leads from the current category to the goal category,
     the controller switches to the best-matching goal candidate that is reachable
     (``model.goal_categories``), and from then on stops in any candidate category
-    (within the physical tolerance). If none is reachable, it raises before any motion
-    (``may_raise``) and otherwise keeps its goal (the caller carries on with what it
-    was doing until a plan exists again).
+    (within the physical tolerance). With ``near``, when no candidate is reachable,
+    it plans to the nearest reachable category near the goal
+    (``controller.goal_fallbacks``); the physical tolerance stops it at the goal on the
+    way. If none is reachable, it raises before any motion (``may_raise``) and
+    otherwise keeps its goal (the caller carries on with what it was doing until a
+    plan exists again).
     """
     controller.planned_from(category)
     if most_likely:
@@ -880,6 +909,11 @@ def retarget(
         # an intermediate goal: any category describing the goal place ends the run
         controller.aim_at(int(candidate))
         return
+    if near:
+        for fallback in controller.goal_fallbacks:
+            if hmm.can_plan(category, int(fallback)):
+                controller.aim_near(int(fallback))
+                return
     if may_raise:
         raise UnreachableGoalError(
             f"no observation path leads from category {category} to any category matching "
