@@ -477,12 +477,13 @@ class LearnedBehavior(Estimator):
         return goal_candidates(scores, self.hmm_.C_counts_, latest, at_goal, limit)
 
     def goal_fallback_categories(
-        self, goal: Mapping[str, float], limit: int = 64
+        self, goal: Mapping[str, float], current: int, limit: int = 64
     ) -> NDArray[np.int64]:
-        """Categories near the goal a simple behavior plans to when no goal category is
-        reachable, nearest first (see :func:`goal_fallbacks`)."""
+        """Categories near the goal, and nearer to it than category ``current``, a simple
+        behavior plans to when no goal category is reachable from ``current``, nearest
+        first (see :func:`goal_fallbacks`)."""
         _, latest, at_goal = self._goal_readings(goal)
-        return goal_fallbacks(self.hmm_.C_counts_, latest, at_goal, limit)
+        return goal_fallbacks(self.hmm_.C_counts_, latest, at_goal, current, limit)
 
     def _goal_readings(
         self, goal: Mapping[str, float]

@@ -124,24 +124,27 @@ def goal_gaps(latest: np.ndarray, goal: np.ndarray) -> np.ndarray:
 
 
 def goal_fallbacks(
-    c_counts: csr_array, latest: np.ndarray, goal: np.ndarray, limit: int = 64
+    c_counts: csr_array, latest: np.ndarray, goal: np.ndarray, current: int, limit: int = 64
 ) -> np.ndarray:
     """Categories near the goal to plan to when no candidate goal category is reachable.
 
     The entered categories whose prototype ends beyond ``GOAL_VALUE_MARGIN`` but within
-    ``FALLBACK_MARGIN`` of the goal on the goal's channels, nearest first. The robot is
-    stopped at the goal by its physical tolerance (goal braking, the stop rule), not by
-    the category: a plan to a category just past the goal carries it through the goal.
-    Needed where the categories that end nearer were only ever entered from elsewhere:
-    a retreat learned with mirror images has two start-at-rest categories entered from
-    each other that best match goals at 0.31 and 0.70 m, while its moving categories
-    end 3-4 cm from them.
+    ``FALLBACK_MARGIN`` of the goal on the goal's channels, and nearer to it than the
+    prototype of ``current`` (where the robot is), nearest first: a plan toward one moves
+    the robot toward the goal, never away. The robot is stopped at the goal by its
+    physical tolerance (goal braking, the stop rule), not by the category: a plan to a
+    category just past the goal carries it through the goal. Needed where the categories
+    that end nearer were only ever entered from elsewhere: a retreat learned with mirror
+    images has two start-at-rest categories entered from each other that best match
+    goals at 0.31 and 0.70 m, while its moving categories end 3-4 cm from them.
 
-    Parameters are those of :func:`goal_candidates`.
+    Parameters are those of :func:`goal_candidates`, and ``current``, the category the
+    robot is in.
     """
     gap = goal_gaps(latest, goal)
     entered = entered_categories(c_counts)
-    out = np.flatnonzero((gap > GOAL_VALUE_MARGIN) & (gap <= FALLBACK_MARGIN) & entered)
+    near = (gap > GOAL_VALUE_MARGIN) & (gap <= FALLBACK_MARGIN) & (gap < gap[current])
+    out = np.flatnonzero(near & entered)
     return out[np.argsort(gap[out], kind="stable")][:limit].astype(np.int64)
 
 

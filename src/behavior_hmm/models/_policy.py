@@ -169,16 +169,11 @@ class GoalTracking:
         self.goal_category = int(candidate)
         self._stop_set = self._goal_set
 
-    @property
-    def goal_fallbacks(self) -> NDArray[np.int64]:
-        """The categories near the goal planned to when no goal candidate is reachable
-        (``model.goal_fallback_categories``, computed on first use: rarely needed)."""
-        memo: dict[tuple[tuple[str, float], ...], NDArray[np.int64]]
-        memo = self.__dict__.setdefault("_fallback_memo", {})
-        key = tuple(self.goal.items())
-        if key not in memo:
-            memo[key] = self.model.goal_fallback_categories(self.goal)
-        return memo[key]
+    def goal_fallbacks(self, category: int) -> NDArray[np.int64]:
+        """The categories near the goal, nearer to it than ``category``, planned to when
+        no goal candidate is reachable from ``category`` (``model.goal_fallback_categories``)."""
+        fallbacks: NDArray[np.int64] = self.model.goal_fallback_categories(self.goal, category)
+        return fallbacks
 
     def aim_near(self, fallback: int) -> None:
         """Aim at ``fallback``, a category near the goal (retarget): the run stops in it
@@ -393,6 +388,8 @@ class SimplePolicy(GoalTracking, RateLimited):
         #: how far this run's commands moved each input (``command_rates_`` units x cycles)
         self._travel = np.zeros(len(self._channels))
         self._recover = bool(getattr(model, "recover", False))
+        #: a start whose goal no candidate is reachable from plans near it (goal_fallbacks)
+        self._goal_fallback = bool(getattr(model, "goal_fallback", True))
         if self._recover:
             self._set_recovery(model)
         self._returning = False
@@ -710,7 +707,8 @@ class SimplePolicy(GoalTracking, RateLimited):
             # before any motion, a goal no candidate category is reachable for is planned
             # toward a category near it; mid-run the current primitive goes on instead
             start = not self._started
-            retarget(self, self._hmm, category, may_raise=start, near=start)
+            near = start and self._goal_fallback
+            retarget(self, self._hmm, category, may_raise=start, near=near)
         now = self._now(x)
         if self._keeps_noise():
             self._confirmation.observe(reading, self.goal)
@@ -880,10 +878,10 @@ def retarget(
     the controller switches to the best-matching goal candidate that is reachable
     (``model.goal_categories``), and from then on stops in any candidate category
     (within the physical tolerance). With ``near``, when no candidate is reachable,
-    it plans to the nearest reachable category near the goal
-    (``controller.goal_fallbacks``); the physical tolerance stops it at the goal on the
-    way. If none is reachable, it raises before any motion (``may_raise``) and
-    otherwise keeps its goal (the caller carries on with what it was doing until a
+    it plans to the nearest reachable category near the goal and nearer to it than
+    ``category`` (``controller.goal_fallbacks``); the physical tolerance stops it at the
+    goal on the way. If none is reachable, it raises before any motion (``may_raise``)
+    and otherwise keeps its goal (the caller carries on with what it was doing until a
     plan exists again).
     """
     controller.planned_from(category)
@@ -910,7 +908,7 @@ def retarget(
         controller.aim_at(int(candidate))
         return
     if near:
-        for fallback in controller.goal_fallbacks:
+        for fallback in controller.goal_fallbacks(category):
             if hmm.can_plan(category, int(fallback)):
                 controller.aim_near(int(fallback))
                 return

@@ -151,6 +151,12 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "plan on c_ij / (1 − c_ii), the next different category (thesis: −log c_ij)",
     ),
     Departure(
+        "goal_fallback",
+        {"SBLM": {"goal_fallback": False}},
+        "a goal no candidate category is reachable from is planned to the nearest "
+        "reachable category near it (within 12 cm / 36°)",
+    ),
+    Departure(
         "observation_vigilance",
         {"CBLM": {"observation_vigilance": 0.95}},
         "CBLM observation categories at ρ 0.99 (thesis: 0.95)",

@@ -203,6 +203,13 @@ class SBLM(LearnedBehavior):
         of ``max_steps_`` lowers its goal error by 10 % (``runtime.Progress``): a robot
         slower than its demonstrations (a lower speed limit, a lagging motor) is not
         stopped short while it is getting there (thesis: 1, a fixed limit).
+    goal_fallback
+        If true (default), a run whose goal no candidate goal category is reachable from
+        where it starts plans to the nearest reachable category within 12 cm / 36 deg of
+        the goal (``goal_fallbacks``) and stops at the goal by its tolerance on the way
+        (a retreat learned with mirror images could not plan to goals between its coarse
+        categories: 10 of 86 start-goal pairs). ``False`` (thesis): the goal is
+        unreachable.
     wheel_calibration
         If true, each run estimates each wheel's gain from the robot's measured body
         speed and yaw rate and divides the commands by them
@@ -326,6 +333,7 @@ class SBLM(LearnedBehavior):
         goal_braking: bool = True,
         learn_corrections: bool = True,
         progress_limit: float = DEFAULT_PROGRESS_LIMIT,
+        goal_fallback: bool = True,
         wheel_calibration: bool = True,
         recover: bool = False,
         mirror: bool = False,
@@ -359,6 +367,7 @@ class SBLM(LearnedBehavior):
         self.goal_braking = goal_braking
         self.learn_corrections = learn_corrections
         self.progress_limit = progress_limit
+        self.goal_fallback = goal_fallback
         self.wheel_calibration = wheel_calibration
         self.recover = recover
         self.mirror = mirror
@@ -373,7 +382,7 @@ class SBLM(LearnedBehavior):
         super().check_params()
         self._checked_inputs()
         flags = ("primitive_recognition", "stop_at_rest", "goal_braking", "learn_corrections")
-        for name in (*flags, "recover"):
+        for name in (*flags, "recover", "goal_fallback"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         size = self.batch_size
