@@ -206,7 +206,8 @@ class SBLM(LearnedBehavior):
     goal_fallback
         If true (default), a run whose goal no candidate goal category is reachable from
         where it starts plans to the nearest reachable category within 12 cm / 36 deg of
-        the goal (``goal_fallbacks``) and stops at the goal by its tolerance on the way
+        the goal and nearer to it than the start (``goal_fallbacks``: never away from
+        the goal), and stops at the goal by its tolerance on the way
         (a retreat learned with mirror images could not plan to goals between its coarse
         categories: 10 of 86 start-goal pairs). ``False`` (thesis): the goal is
         unreachable.
