@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -89,6 +90,19 @@ def test_sequences_are_checked_before_any_work() -> None:
     assert check_sequence([*DEFAULT_SEQUENCE, "grasp"])[-1] == "grasp"
     with pytest.raises(ConfigError, match=r"grasp.*KheperaGripper.*--no-bc"):
         check_sequence(["turn", "grasp"], bc=True)
+
+
+def test_a_complex_task_runs_toward_its_own_goal_in_a_model_of_several() -> None:
+    # a refit CBLM fitted on position's demonstrations before turn & approach's takes
+    # position's goal (0.5 m) as its default; turn & approach must still run to 0 m
+    model = SimpleNamespace(behavior_="position", default_goal_={"angle": 0.0, "distance": 0.5})
+    view = inc._as_task(model, "turn-approach")
+    assert view.behavior_ == "turn-approach"
+    assert view.default_goal_ == {"angle": 0.0, "distance": 0.0}
+    assert model.default_goal_ == {"angle": 0.0, "distance": 0.5}  # the model is untouched
+    # a simple task keeps the goal its own demonstrations end at
+    turn = SimpleNamespace(behavior_="turn", default_goal_={"angle": 0.012})
+    assert inc._as_task(turn, "turn").default_goal_ == {"angle": 0.012}
 
 
 def test_grasp_joins_the_sequence_on_the_gripper_robot() -> None:

@@ -504,9 +504,18 @@ class _Context:
 
 def _as_task(model: Any, task: str) -> Any:
     """``model`` scored as ``task``: a shallow copy whose ``behavior_`` (the teacher whose
-    reference runs it is scored against) is the task's; nothing else differs."""
+    reference runs it is scored against) is the task's; nothing else differs, except that
+    a complex task runs toward its own declared goal (``default_goal_``): a CBLM fitted on
+    several tasks' demonstrations takes its default goal from the first dataset's, so
+    turn & approach refitted after position would otherwise stop at position's 0.5 m."""
+    from behavior_hmm.teach import behavior_spec
+
     view = copy.copy(model)
     view.behavior_ = task
+    spec = behavior_spec(task)
+    own = getattr(model, "default_goal_", None)
+    if spec.components and own is not None:
+        view.default_goal_ = {c: float(spec.goal.get(c, v)) for c, v in own.items()}
     return view
 
 
