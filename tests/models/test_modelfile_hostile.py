@@ -535,6 +535,23 @@ def prototypes_1e300(c: Corpus) -> bytes:
 
 
 @case("SBLM")
+def start_envelope_negative(c: Corpus) -> bytes:
+    return _scaled(c, "start_envelope", -1.0)
+
+
+@case("SBLM")
+def start_envelope_nan(c: Corpus) -> bytes:
+    envelope = c.sblm.array("start_envelope").copy()
+    envelope[0, 0] = np.nan
+    return with_array(c.sblm, "start_envelope", npy(envelope))
+
+
+@case("SBLM")
+def start_envelope_one_command_short(c: Corpus) -> bytes:
+    return with_array(c.sblm, "start_envelope", npy(c.sblm.array("start_envelope")[:, :1]))
+
+
+@case("SBLM")
 def counts_beyond_int64(c: Corpus) -> bytes:
     counts = c.sblm.array("prim.counts").astype(np.uint64) + np.uint64(2**63)
     return with_array(c.sblm, "prim.counts", npy(counts))

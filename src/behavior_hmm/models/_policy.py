@@ -381,6 +381,12 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._limit_motion = True
         self._limit_reset()
         self._brakes = bool(getattr(model, "goal_braking", False)) and self._rate > 0.0
+        envelope = getattr(model, "start_envelope_", None)
+        #: ``start_envelope``: each cycle's bound on the command's distance from rest in a
+        #: run from rest (None: off, or a model file without it)
+        self._envelope = envelope if getattr(model, "start_envelope", False) else None
+        #: whether this run began at rest (decided at its first command; None: not yet)
+        self._from_rest: bool | None = None
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
@@ -436,6 +442,28 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._brake_reset()
         self._returning = False
         self._arrival_reset()
+        self._from_rest = None
+
+    def _limited(self, out: StepOutput) -> StepOutput:
+        """The rate limit, then (``start_envelope``) the demonstrations' start-up envelope.
+
+        A run whose first command left from rest (not one a complex behavior carried on
+        at speed) is held, at onset clock cycle ``t``, within ``rest ± envelope[t]``
+        until the envelope ends (module ``models._envelope``)."""
+        if self._from_rest is None:
+            self._from_rest = self._at_rest_command(self._last)
+        out = super()._limited(out)
+        envelope = self._envelope
+        if envelope is None or not self._from_rest or out.done:
+            return out
+        t = max(self.onset_cycles - 1, 0)  # the clock the generator read this cycle
+        if t >= envelope.shape[0]:
+            self._from_rest = False  # past the start-up: nothing more to bound
+            return out
+        rest = self._rest_command
+        u = rest + np.clip(out.command - rest, -envelope[t], envelope[t])
+        self._last = u
+        return out._replace(command=u)
 
     @property
     def onset_cycles(self) -> int:

@@ -276,6 +276,12 @@ OPTIONS: Final[tuple[Option, ...]] = (
         "category's prototype",
     ),
     Option(
+        "start_envelope",
+        {"SBLM": {"start_envelope": True}},
+        "a run from rest leaves rest no faster than any demonstration had by the same "
+        "cycle (the demonstrations' start-up envelope)",
+    ),
+    Option(
         "auto_inputs",
         {"SBLM": {"inputs": AUTO_INPUTS}},
         "each simple behavior's input channels chosen from its demonstrations "
