@@ -376,6 +376,21 @@ def test_one_fraction_still_draws_its_floor() -> None:
     assert np.allclose(np.asarray(line.get_ydata(), dtype=float), 40.5)
 
 
+def test_a_long_preset_title_stays_inside_the_figure() -> None:
+    results = _hand_made()
+    results["preset"] = (
+        "default + hidden=10, generator_init='shared', mirror=True, start_envelope=True; "
+        "default + mirror=True"
+    )
+    fig = plot_data_efficiency(results)
+    title = fig._suptitle
+    assert title is not None and "\n" in title.get_text()
+    fig.canvas.draw()
+    box = title.get_window_extent()
+    width = fig.get_figwidth() * fig.dpi
+    assert box.x0 >= 0.0 and box.x1 <= width
+
+
 def test_fraction_text() -> None:
     assert [fraction_text(f) for f in (0.125, 0.25, 0.5, 1.0, 0.3)] == [
         "1/8",

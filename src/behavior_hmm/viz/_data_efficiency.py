@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
 from pathlib import Path
@@ -225,11 +226,12 @@ def plot_data_efficiency(results: Mapping[str, Any]) -> Figure:
     axes[0].set_ylim(max(0.0, np.floor(low / 10.0) * 10.0 - 5.0), 101.0)
     preset = results.get("preset", "default")
     spread = f"mean ± sd over {len(seeds)} seeds" if len(seeds) > 1 else f"seed {seeds[0]}"
-    fig.suptitle(
+    title = (
         f"Data efficiency: nested subsets of each grid ({results['sim']}, {preset} preset, "
-        f"{spread})",
-        fontsize=10,
+        f"{spread})"
     )
+    # a preset with several parameters set is long: wrapped, not cut at the figure's edges
+    fig.suptitle(textwrap.fill(title, width=40 * len(axes)), fontsize=10)
     return fig
 
 
