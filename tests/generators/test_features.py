@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from behavior_hmm.generators._features import DEFAULT_ONSET_CLOCK, FeatureLayout, OnlineFeatures
+from behavior_hmm.generators._features import (
+    DEFAULT_ONSET_CLOCK,
+    FeatureLayout,
+    OnlineFeatures,
+    onset_floors,
+)
 from behavior_hmm.teach import collect
 
 
@@ -88,3 +93,11 @@ def test_a_resumed_clock_goes_on_from_where_it_stopped() -> None:
     assert features.row()[-1] == pytest.approx(5 / 8)  # the run goes on
     features.resume(30)
     assert features.row()[-1] == 1.0  # saturated
+
+
+def test_onset_floors_are_each_primitives_earliest_clock() -> None:
+    clock = np.array([0.0, 0.1, 0.2, 0.9, 1.0, 0.5, 0.6])
+    states = np.array([0, 0, 2, 2, 2, 3, 0])
+    # primitive 1 has no rows: nothing to hold it to
+    assert onset_floors(clock, states, 4).tolist() == [0.0, 0.0, 0.2, 0.5]
+    assert onset_floors(np.array([]), np.array([], dtype=np.int64), 2).tolist() == [0.0, 0.0]

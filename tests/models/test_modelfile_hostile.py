@@ -552,6 +552,16 @@ def start_envelope_one_command_short(c: Corpus) -> bytes:
 
 
 @case("SBLM")
+def onset_floor_beyond_one(c: Corpus) -> bytes:
+    return with_array(c.sblm, "onset_floor", npy(c.sblm.array("onset_floor") + 2.0))
+
+
+@case("SBLM")
+def onset_floor_one_primitive_short(c: Corpus) -> bytes:
+    return with_array(c.sblm, "onset_floor", npy(c.sblm.array("onset_floor")[:-1]))
+
+
+@case("SBLM")
 def counts_beyond_int64(c: Corpus) -> bytes:
     counts = c.sblm.array("prim.counts").astype(np.uint64) + np.uint64(2**63)
     return with_array(c.sblm, "prim.counts", npy(counts))

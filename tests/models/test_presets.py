@@ -139,6 +139,7 @@ def test_every_option_is_off_in_both_presets_and_names_real_parameters() -> None
         "shared_init",
         "recover",
         "start_envelope",
+        "onset_floor",
         "auto_inputs",
     ]
     for item in OPTIONS:

@@ -59,6 +59,26 @@ def onset_features(lengths: Lengths, clock: int) -> FloatArray:
     return (np.minimum(steps, clock) / clock)[:, None]
 
 
+def onset_floors(
+    clock: FloatArray, states: Sequence[int] | NDArray[np.integer[Any]], n: int
+) -> FloatArray:
+    """The earliest onset clock each of ``n`` primitives' networks was trained on.
+
+    ``clock``: the onset clock column of the training rows; ``states``: each row's
+    primitive. A primitive without rows gets 0 (nothing to hold it to). A network of a
+    primitive met only mid-motion never read a clock near 0; fed one at a start from
+    rest, it extrapolates (``SBLM(onset_floor=True)`` feeds it its floor instead).
+    """
+    floors = np.zeros(int(n))
+    ids = np.asarray(states, dtype=np.int64)
+    values = np.asarray(clock, dtype=np.float64)
+    present = np.unique(ids)
+    if present.size:
+        floors[present] = np.full(present.size, np.inf)
+        np.minimum.at(floors, ids, values)
+    return floors
+
+
 def shifted_windows(
     features: FloatArray, n_channels: int, window: int, sigma: float, rng: np.random.Generator
 ) -> FloatArray:

@@ -387,6 +387,9 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._envelope = envelope if getattr(model, "start_envelope", False) else None
         #: whether this run began at rest (decided at its first command; None: not yet)
         self._from_rest: bool | None = None
+        floors = getattr(model, "onset_floor_", None)
+        #: ``onset_floor``: the earliest clock each primitive's network was trained on
+        self._floors = floors if getattr(model, "onset_floor", False) else None
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
@@ -775,7 +778,11 @@ class SimplePolicy(GoalTracking, RateLimited):
             self._support = self._outliers = 0
         self._state = state
         self._started = True
-        y = self._generator.step(self._features.row(), state)
+        row = self._features.row()
+        floors = self._floors
+        if floors is not None and state < floors.shape[0] and row[-1] < floors[state]:
+            row[-1] = floors[state]  # the clock is the row's last feature; rewritten each cycle
+        y = self._generator.step(row, state)
         if self._recover:
             y = self._closed(category, now, self._returned(x, y))
         if self._held is not None:  # commands its demonstrations never moved stay at rest

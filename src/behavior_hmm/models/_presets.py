@@ -282,6 +282,12 @@ OPTIONS: Final[tuple[Option, ...]] = (
         "cycle (the demonstrations' start-up envelope)",
     ),
     Option(
+        "onset_floor",
+        {"SBLM": {"onset_floor": True}},
+        "each primitive's network reads the onset clock no earlier than its own training "
+        "rows began",
+    ),
+    Option(
         "auto_inputs",
         {"SBLM": {"inputs": AUTO_INPUTS}},
         "each simple behavior's input channels chosen from its demonstrations "

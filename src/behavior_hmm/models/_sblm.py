@@ -34,6 +34,7 @@ from behavior_hmm.generators._features import (
     DEFAULT_ONSET_CLOCK,
     FeatureLayout,
     command_features,
+    onset_floors,
     shifted_windows,
 )
 from behavior_hmm.hmm import BehaviorHMM
@@ -252,6 +253,15 @@ class SBLM(LearnedBehavior):
         docs/results.md, "Data efficiency"). A run that starts while the robot moves (a
         component carried on by a complex behavior) or a resumed clock is not bounded.
         ``False`` (thesis, and the default): the generators alone.
+    onset_floor
+        If true (needs ``onset_clock`` > 0), each primitive's network reads the onset
+        clock no earlier than the earliest its own training rows held
+        (``onset_floor_``): a primitive met only mid-motion, decoded at a start from
+        rest between the demonstrated starts, reads the clock it was trained on instead
+        of one near 0 it never saw, and does not extrapolate (the approach from a
+        quarter of its grid, decoded mid-approach at rest, first turned the robot 8°
+        and handed turn & approach back to its turn 13 times). ``False`` (thesis, and
+        the default): the clock as it runs.
     goal_braking
         If true (default; needs ``command_rate_limit`` > 0), when a ramp to rest at the
         rate limit started any later would overshoot the goal (predicted from
@@ -291,6 +301,11 @@ class SBLM(LearnedBehavior):
         Change of each filtered input per control cycle (its unit) per unit of each
         command (rad/s of the left and the right wheel), fitted on the demonstrations
         (goal braking).
+    onset_floor_ : ndarray of shape (n_primitives,) or None
+        The earliest onset clock (normalized, ``min(t, onset_clock) / onset_clock``)
+        among each primitive's generator training rows (0 for one without rows), the
+        floor ``onset_floor`` holds its network's clock to; None without a clock, or in
+        a model file written before it was learned.
     start_envelope_ : ndarray of shape (T, n_commands)
         The demonstrations' start-up envelope (``start_envelope``): row ``t`` is the
         largest ``|command - rest|`` of each command channel any demonstration reached
@@ -357,6 +372,7 @@ class SBLM(LearnedBehavior):
         recover: bool = False,
         mirror: bool = False,
         start_envelope: bool = False,
+        onset_floor: bool = False,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -392,6 +408,7 @@ class SBLM(LearnedBehavior):
         self.recover = recover
         self.mirror = mirror
         self.start_envelope = start_envelope
+        self.onset_floor = onset_floor
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
@@ -403,7 +420,7 @@ class SBLM(LearnedBehavior):
         super().check_params()
         self._checked_inputs()
         flags = ("primitive_recognition", "stop_at_rest", "goal_braking", "learn_corrections")
-        for name in (*flags, "recover", "goal_fallback", "start_envelope"):
+        for name in (*flags, "recover", "goal_fallback", "start_envelope", "onset_floor"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         size = self.batch_size
@@ -549,6 +566,12 @@ class SBLM(LearnedBehavior):
         target = y if self.generator_output == "command" else np.clip(step / delta_scale, -1, 1)
         features, target, gen_states, groups, starts = self._generator_rows(
             features, target, states, lengths, dataset.episode_ids
+        )
+        # the clock is a row's last feature (FeatureLayout)
+        self.onset_floor_: np.ndarray | None = (
+            onset_floors(features[:, -1], gen_states, prim.n_categories_)
+            if self.onset_clock > 0
+            else None
         )
         common: dict[str, Any] = {
             "window": int(prim.window),
@@ -733,6 +756,7 @@ class SBLM(LearnedBehavior):
         features, target, gen_states, groups, starts = self._generator_rows(
             features, target, states, lengths, dataset.episode_ids
         )
+        floors = self._grown_floors(features, gen_states, prim.n_categories_)
         old = self.generators_
         gens = type(old).from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
@@ -781,6 +805,7 @@ class SBLM(LearnedBehavior):
         self.stops_ = stops
         self.wheel_response_ = wheels
         self.start_envelope_ = envelope
+        self.onset_floor_ = floors
         # the old rows are not kept: the old radius, or the new rows' from the moved prototypes
         self.reach_radius_ = max(float(getattr(self, "reach_radius_", 0.0)), reach)
         self.rest_values_ = {c: float(np.median(stops[:, j])) for j, c in enumerate(inputs)}
@@ -791,6 +816,22 @@ class SBLM(LearnedBehavior):
             self.train_states_ = np.concatenate([self.train_states_, nominal_states])
             self.train_observations_ = np.concatenate([self.train_observations_, observations])
         return self
+
+    def _grown_floors(
+        self, features: FloatArray, states: Any, n_primitives: int
+    ) -> np.ndarray | None:
+        """``onset_floor_`` after an update whose generator rows are ``features`` of
+        primitives ``states``: a primitive with new rows takes the lower of its floor and
+        theirs (its network is fine-tuned on them), a new one theirs, the rest keep theirs."""
+        old = getattr(self, "onset_floor_", None)
+        if self.onset_clock <= 0 or old is None:
+            return None
+        fresh = onset_floors(features[:, -1], states, n_primitives)
+        seen = np.zeros(n_primitives, dtype=bool)
+        seen[np.unique(np.asarray(states, dtype=np.int64))] = True
+        kept = old.shape[0]
+        fresh[:kept] = np.where(seen[:kept], np.minimum(old, fresh[:kept]), old)
+        return fresh
 
     def _check_update(self, dataset: Dataset, inputs: tuple[str, ...]) -> None:
         """Refuse (ConfigError) demonstrations that this fitted model cannot learn from."""
@@ -987,6 +1028,9 @@ class SBLM(LearnedBehavior):
         envelope = getattr(self, "start_envelope_", None)
         if envelope is not None:
             arrays["start_envelope"] = envelope
+        floors = getattr(self, "onset_floor_", None)
+        if floors is not None:
+            arrays["onset_floor"] = floors
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
             arrays[f"{prefix}.prototypes"] = net.prototypes_
             arrays[f"{prefix}.counts"] = net.counts_
@@ -1049,7 +1093,7 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("pipeline channels do not match the inputs")
         _modelfile.check_pipeline(pipeline)
         names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
-        names.update(("stops", "command_rates", "wheel_response", "start_envelope"))
+        names.update(("stops", "command_rates", "wheel_response", "start_envelope", "onset_floor"))
         extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
         if extra:
             raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
@@ -1137,6 +1181,14 @@ class SBLM(LearnedBehavior):
             if not np.all(envelope >= 0.0) or envelope.max() > _modelfile.MAX_ABS_VALUE:
                 raise ModelFileError("array 'start_envelope' holds negative or absurd values")
             model.start_envelope_ = np.array(envelope, dtype=np.float64)
+        model.onset_floor_ = None  # files written before it was learned have none
+        if "onset_floor" in arrays:
+            floors = _modelfile.check_array(arrays, "onset_floor", ndim=1)
+            if floors.shape != (model.generators_.n_primitives_,):
+                raise ModelFileError("array 'onset_floor' must hold one value per primitive")
+            if not np.all((floors >= 0.0) & (floors <= 1.0)):
+                raise ModelFileError("array 'onset_floor' must lie in [0, 1]")
+            model.onset_floor_ = np.array(floors, dtype=np.float64)
         return model
 
 
