@@ -501,6 +501,10 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 child.start_confirm_cycles = 0
             if hasattr(child, "confirm_goal"):  # and confirms its own goal at the end
                 child.confirm_goal = False
+            if hasattr(child, "start_alternatives"):
+                # a simple component that cannot plan from its best-matching start tries
+                # the next plannable ones, as this behavior's own start does
+                child.start_alternatives = self._alternatives
             if isinstance(child, ComplexPolicy):
                 # a complex component with no plan to its intermediate goal from where the
                 # robot is gets skipped, and this plan picks the next: a runner-up start of

@@ -387,6 +387,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._envelope = envelope if getattr(model, "start_envelope", False) else None
         #: whether this run began at rest (decided at its first command; None: not yet)
         self._from_rest: bool | None = None
+        #: before any motion, the best-matching categories a plan can start from that are
+        #: tried when none starts from the current one (0: the run is unreachable; a
+        #: complex behavior gives its components its own ``start_alternatives``)
+        self.start_alternatives = 0
         floors = getattr(model, "onset_floor_", None)
         #: ``onset_floor``: the earliest clock each primitive's network was trained on
         self._floors = floors if getattr(model, "onset_floor", False) else None
@@ -739,7 +743,10 @@ class SimplePolicy(GoalTracking, RateLimited):
             # toward a category near it; mid-run the current primitive goes on instead
             start = not self._started
             near = start and self._goal_fallback
-            retarget(self, self._hmm, category, may_raise=start, near=near)
+            try:
+                retarget(self, self._hmm, category, may_raise=start, near=near)
+            except UnreachableGoalError as unreachable:
+                category = self._alternative_start(category, near, unreachable)
         now = self._now(x)
         if self._keeps_noise():
             self._confirmation.observe(reading, self.goal)
@@ -789,6 +796,39 @@ class SimplePolicy(GoalTracking, RateLimited):
             y = np.where(self._held, self._rest_command / self._scale, y)
         y = self._features.commit(y)
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
+
+    def _alternative_start(
+        self, category: int, near: bool, unreachable: UnreachableGoalError
+    ) -> int:
+        """Before any motion, no plan from ``category``: the best-matching category of the
+        live window from which a plan to a goal candidate exists (at most
+        ``start_alternatives`` tried, best match first; ``BehaviorHMM.plannable_from``),
+        decoded this cycle in its place; ``unreachable`` raised if none.
+
+        A window at rest between two demonstrated starts can match best a category from
+        which no demonstration led to the goal. As a component of turn & approach from a
+        quarter of each grid (seed 7, 112 deg, 0.22 m), the turn then could not start,
+        the complex behavior skipped it, reopened it since its goal did not hold, and the
+        robot stood until the step limit. Later cycles in the same category go on with
+        the primitive decoded here (``_decode`` keeps it while no plan exists).
+        """
+        if self.start_alternatives < 1:
+            raise unreachable
+        hmm = self._hmm
+        memo = self.__dict__.setdefault("_plannable_memo", {})
+        key = self.goal_candidates.tobytes()
+        if key not in memo:
+            memo[key] = hmm.plannable_from(self.goal_candidates)
+        ranked = np.argsort(self._live.mismatch, kind="stable")
+        ranked = ranked[memo[key][ranked] & (ranked != category)]
+        for alternative in (int(k) for k in ranked[: self.start_alternatives]):
+            try:
+                retarget(self, hmm, alternative, may_raise=True, near=near)
+            except UnreachableGoalError:
+                continue
+            self._reachable_from = category
+            return alternative
+        raise unreachable
 
     def _noise_known(self) -> bool:
         """Whether the readings have been read long enough to tell whether they are noisy
