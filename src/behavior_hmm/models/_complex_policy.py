@@ -1101,14 +1101,7 @@ class ComplexPolicy(GoalTracking, RateLimited):
                 return category  # carry on with the running component
             if self._alternatives < 1:
                 raise
-            ranked = np.argsort(self._live.mismatch, kind="stable")
-            # the mask depends on the model and the goal alone (~17 ms at 2,400 categories)
-            memo = self.__dict__.setdefault("_plannable_memo", {})
-            key = self.goal_candidates.tobytes()
-            if key not in memo:
-                memo[key] = hmm.plannable_from(self.goal_candidates)
-            ranked = ranked[memo[key][ranked] & (ranked != category)]
-            for alternative in (int(k) for k in ranked[: self._alternatives]):
+            for alternative in self.plannable_starts(hmm, category, self._alternatives):
                 try:
                     retarget(self, hmm, alternative, may_raise=True, most_likely=True)
                 except UnreachableGoalError:
