@@ -54,15 +54,22 @@ def test_rows_of_a_simple_task_leave_out_cblm_departures() -> None:
         + ["default"]
         + [f"default − {n}" for n in sblm]
         + ["default + elman", "default − onset_clock + elman"]
-        + ["default + shared_init", "default + recover", "default + auto_inputs"]
+        + [
+            "default + shared_init",
+            "default + recover",
+            "default + start_envelope",
+            "default + onset_floor",
+            "default + auto_inputs",
+        ]
     )
     assert "repair" not in {n for r in rows for n in r.switched}
 
 
 def test_rows_of_the_complex_task_cover_every_departure() -> None:
     rows = ablation_rows(task("turn-approach"))
-    # + elman, − onset_clock + elman, + shared_init, + recover, + auto_inputs
-    assert len(rows) == 2 + 2 * len(DEPARTURES) + 5
+    # + elman, − onset_clock + elman, + shared_init, + recover, + start_envelope,
+    # + onset_floor, + auto_inputs
+    assert len(rows) == 2 + 2 * len(DEPARTURES) + 7
     assert {n for r in rows for n in r.switched} == {d.name for d in DEPARTURES}
     assert [t.name for t in ABLATION_TASKS] == ["turn", "approach", "turn-approach"]
 
