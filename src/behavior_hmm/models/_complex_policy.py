@@ -1099,16 +1099,12 @@ class ComplexPolicy(GoalTracking, RateLimited):
         except UnreachableGoalError:
             if self._child is not None:
                 return category  # carry on with the running component
-            if self._alternatives < 1:
+            alternative = self.alternative_start(
+                hmm, category, self._alternatives, most_likely=True
+            )
+            if alternative < 0:
                 raise
-            for alternative in self.plannable_starts(hmm, category, self._alternatives):
-                try:
-                    retarget(self, hmm, alternative, may_raise=True, most_likely=True)
-                except UnreachableGoalError:
-                    continue
-                self._reachable_from = category
-                return alternative
-            raise
+            return alternative
 
     def _values(self, reading: Mapping[str, float], x: FloatArray) -> dict[str, float]:
         filtered = (x + 1.0) / self._gain + self._lo

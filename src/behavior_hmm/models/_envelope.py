@@ -56,7 +56,7 @@ def startup_envelope(
 
 def merged_envelope(a: FloatArray, b: FloatArray) -> FloatArray:
     """The envelope of two sets of demonstrations from the envelopes of each: exactly what
-    :func:`start_envelope` gives on them together."""
+    :func:`startup_envelope` gives on them together."""
     longest = max(a.shape[0], b.shape[0])
     both = np.maximum(_padded(a, longest), _padded(b, longest))
     return _cut(both)

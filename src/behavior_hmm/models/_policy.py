@@ -196,6 +196,21 @@ class GoalTracking:
         ranked = ranked[memo[key][ranked] & (ranked != category)]
         return [int(k) for k in ranked[:count]]
 
+    def alternative_start(self, hmm: Any, category: int, count: int, **retargeting: Any) -> int:
+        """The first of :meth:`plannable_starts` that ``retarget`` (``retargeting``: its
+        keywords) plans from, now aimed at; -1 if none. Later cycles in ``category`` do not
+        retarget again."""
+        if count < 1:  # none to try: not even the plannable mask is computed
+            return -1
+        for alternative in self.plannable_starts(hmm, category, count):
+            try:
+                retarget(self, hmm, alternative, may_raise=True, **retargeting)
+            except UnreachableGoalError:
+                continue
+            self._reachable_from = category
+            return alternative
+        return -1
+
     def renew(self, goal: Mapping[str, float] | None, tolerance: float) -> None:
         """Aim at a new goal with the state a new controller would have after ``reset()``.
 
@@ -827,17 +842,11 @@ class SimplePolicy(GoalTracking, RateLimited):
         robot stood until the step limit. Later cycles in the same category go on with
         the primitive decoded here (``_decode`` keeps it while no plan exists).
         """
-        if self.start_alternatives < 1:
+        count = self.start_alternatives
+        alternative = self.alternative_start(self._hmm, category, count, near=near)
+        if alternative < 0:
             raise unreachable
-        hmm = self._hmm
-        for alternative in self.plannable_starts(hmm, category, self.start_alternatives):
-            try:
-                retarget(self, hmm, alternative, may_raise=True, near=near)
-            except UnreachableGoalError:
-                continue
-            self._reachable_from = category
-            return alternative
-        raise unreachable
+        return alternative
 
     def _noise_known(self) -> bool:
         """Whether the readings have been read long enough to tell whether they are noisy
