@@ -172,3 +172,78 @@ def test_command_rates_are_the_robots_kinematics(approach: SBLM, tmp_path: Any) 
     assert distance == pytest.approx([per_wheel, per_wheel], rel=0.15)
     approach.save(tmp_path / "a.bhmm")
     assert np.array_equal(SBLM.load(tmp_path / "a.bhmm").command_rates_, approach.command_rates_)
+
+
+def _creep(
+    model: SBLM, angle: float, command: np.ndarray, monkeypatch: Any
+) -> tuple[bool, float, np.ndarray]:
+    """Run the turn policy on a robot whose bearing moves exactly as the model's learned
+    ``command_rates_`` say, with its generator stuck at ``command`` (rad/s) and no
+    category a goal candidate (the stop rule's category test never holds, as in the
+    category a primitive crept in, 2.3 deg off, in the case ``_stalled`` names).
+
+    Returns whether the policy finished, the final bearing (deg) and the commands.
+    """
+    monkeypatch.setattr(
+        type(model.policy({"angle": 0.0})),
+        "_stop_set",
+        property(lambda self: frozenset(), lambda self, value: None),
+        raising=False,
+    )
+    policy = model.policy({"angle": 0.0})
+    policy._generator = _Stuck(0.0)
+    policy._generator.value = np.asarray(command, dtype=np.float64) / model.command_scales_
+    i = list(policy._channels).index("angle")
+    u, commands, done = np.zeros(2), [], False
+    for _ in range(600):
+        rates = u @ model.command_rates_  # each input's change per cycle at this command
+        reading = {
+            "angle": angle,
+            "angular_velocity": float(rates[i]) / PERIOD_S,
+            "distance": 0.5,
+            "linear_velocity": WHEEL_RADIUS_M * float(np.mean(u)),
+        }
+        out = policy.step(reading)
+        if out.done:
+            done = True
+            break
+        u = out.command
+        commands.append(u)
+        angle += float((u @ model.command_rates_)[i])
+    return done, angle, np.array(commands)
+
+
+def test_a_run_that_creeps_inside_the_tolerance_without_closing_ends_there(
+    turn_model: SBLM, monkeypatch: Any
+) -> None:
+    """2 deg off (inside the 3 deg tolerance), the generator creeps forward on equal
+    wheels, which does not turn the robot: without the stall rule the run never ends
+    (the robot creeps on until the step limit, and a complex behavior never gets to its
+    next component); with it, it brakes to rest there, within the rate limit."""
+    from behavior_hmm.data import ANGLE_TOLERANCE_DEG
+    from behavior_hmm.models._policy import STALL_HOLD_CYCLES
+
+    creep = np.array([0.5, 0.5])  # rad/s, both wheels: forward, no turn
+    done, angle, commands = _creep(turn_model, 2.0, creep, monkeypatch)
+    assert done
+    assert abs(angle) <= ANGLE_TOLERANCE_DEG
+    assert STALL_HOLD_CYCLES <= len(commands) < 60
+    assert np.all(np.abs(commands[-1]) < np.abs(creep))  # ramped down, not cut at speed
+    policy = turn_model.policy({"angle": 0.0})
+    assert command_jump(np.vstack([commands, np.zeros(2)])) <= policy._rate * (1 + 1e-9)
+
+
+def test_a_slow_turn_that_closes_on_the_goal_is_not_a_stall(
+    turn_model: SBLM, monkeypatch: Any
+) -> None:
+    """A turn inside the tolerance that closes on its goal (in ~200 cycles, under
+    ``STALL_CYCLES``) goes on to the goal instead of stopping where it is."""
+    policy = turn_model.policy({"angle": 0.0})
+    k = list(policy._channels).index("angle")
+    unit = np.array([-1.0, 1.0])
+    per_cycle = float((unit @ turn_model.command_rates_)[k])  # deg per cycle at 1 rad/s
+    # 2.9 deg closed in ~200 cycles: the sign that reduces the bearing
+    command = unit * (-2.9 / 200.0) / per_cycle
+    done, angle, _ = _creep(turn_model, 2.9, command, monkeypatch)
+    assert done
+    assert abs(angle) < 1.0, f"stopped at {angle:.2f} deg: a closing turn was taken for a stall"

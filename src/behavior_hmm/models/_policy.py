@@ -229,6 +229,11 @@ BRAKE_HOLD_CYCLES = 8
 #: Cycles after a brake's ramp ends before a robot inside its goal's tolerance is done
 #: (the wheels' lag: it is at rest by then).
 BRAKE_SETTLE_CYCLES = 3
+#: Goal braking also stops a run that moves inside its goal's tolerance without closing
+#: on the goal: its command would take more than this many cycles (16 s) to reach it ...
+STALL_CYCLES = 1000
+#: ... on this many cycles in a row (a passing moment of no progress is not a stall).
+STALL_HOLD_CYCLES = 8
 
 #: Readings over which a robot that has not moved yet must hold its goal before its run
 #: ends there (with ``stop_at_rest``): one noisy first reading inside the tolerance
@@ -601,6 +606,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._brake_history: list[FloatArray] = []
         self._braking = False
         self._brake_hold = 0
+        self._stall = 0
 
     def check_reachable(self, reading: Mapping[str, float]) -> None:
         """Raise UnreachableGoalError if no plan leads from ``reading`` to the goal."""
@@ -669,8 +675,10 @@ class SimplePolicy(GoalTracking, RateLimited):
             # the filtered readings trail a moving robot: where it is now
             now = filtered + rates * self._lag
             ramp = float(np.max(away / self._rates))  # cycles to rest at the rate limit
-            self._braking = self._rest_at_goal(now, rates, ramp + 1.0)
+            self._braking = self._rest_at_goal(now, rates, ramp + 1.0) or self._stalled(now, rates)
             self._brake_hold = 0
+            if self._braking:
+                self._stall = 0
         if not self._braking:
             return self._limited(out)
         u = self._ramped_down()
@@ -746,6 +754,28 @@ class SimplePolicy(GoalTracking, RateLimited):
             elif abs(rest) > tol:
                 return False
         return closing
+
+    def _stalled(self, now: FloatArray, rates: FloatArray) -> bool:
+        """Whether the robot has moved inside its goal's tolerance without closing on it
+        for ``STALL_HOLD_CYCLES`` cycles in a row: every goal channel holds its tolerance,
+        and none is closing on its goal fast enough to reach it within ``STALL_CYCLES``.
+
+        Such a run ends there (it brakes to rest, and the stop rule finds it inside the
+        tolerance) instead of driving on: a turn whose primitive, decoded in a category
+        that is no goal candidate, crept forward at 0.014 rad/s 2.3 deg from its goal
+        (inside the 3 deg tolerance) until the step limit (turn & approach at 1/4 of the
+        grids, seed 5, from 9 deg, 0.15 m).
+        """
+        stalled = True
+        for i, spec, goal, tol in self._brake_slots:
+            error = spec.error(now[i], goal)
+            rate = float(rates[i])
+            closing = error * rate < 0.0 and abs(rate) * STALL_CYCLES >= abs(error)
+            if abs(error) > tol or closing:
+                stalled = False
+                break
+        self._stall = self._stall + 1 if stalled else 0
+        return self._stall >= STALL_HOLD_CYCLES
 
     def _now(self, x: FloatArray) -> FloatArray:
         """Where the robot is, physical units, from this cycle's filtered readings ``x``
