@@ -9,6 +9,8 @@ from behavior_hmm.generators._features import (
     DEFAULT_ONSET_CLOCK,
     FeatureLayout,
     OnlineFeatures,
+    grown_ranges,
+    input_ranges,
     onset_floors,
 )
 from behavior_hmm.teach import collect
@@ -101,3 +103,25 @@ def test_onset_floors_are_each_primitives_earliest_clock() -> None:
     # primitive 1 has no rows: nothing to hold it to
     assert onset_floors(clock, states, 4).tolist() == [0.0, 0.0, 0.2, 0.5]
     assert onset_floors(np.array([]), np.array([], dtype=np.int64), 2).tolist() == [0.0, 0.0]
+
+
+def test_input_ranges_are_each_primitives_lowest_and_highest_window_values() -> None:
+    windows = np.array([[0.0, 1.0], [0.2, -1.0], [0.5, 0.5], [0.9, 0.4], [-0.3, 0.0]])
+    states = np.array([0, 0, 2, 2, 3])
+    ranges = input_ranges(windows, states, 4)
+    assert ranges.shape == (4, 2, 2)
+    assert ranges[0].tolist() == [[0.0, -1.0], [0.2, 1.0]]
+    assert ranges[2].tolist() == [[0.5, 0.4], [0.9, 0.5]]
+    assert ranges[3].tolist() == [[-0.3, 0.0], [-0.3, 0.0]]
+    # primitive 1 has no rows: all rows' range
+    assert ranges[1].tolist() == [[-0.3, -1.0], [0.9, 1.0]]
+
+
+def test_grown_ranges_widen_only_primitives_with_new_rows() -> None:
+    old = input_ranges(np.array([[0.0], [0.5], [0.2]]), np.array([0, 1, 1]), 2)
+    fresh_rows, fresh_states = np.array([[-0.4], [0.9]]), np.array([1, 2])
+    grown = grown_ranges(old, input_ranges(fresh_rows, fresh_states, 3), fresh_states)
+    assert grown.shape == (3, 2, 1)
+    assert grown[0].tolist() == old[0].tolist()  # no new rows: as it was
+    assert grown[1].tolist() == [[-0.4], [0.5]]  # the union of its old and new rows
+    assert grown[2].tolist() == [[0.9], [0.9]]  # a new primitive: its own rows

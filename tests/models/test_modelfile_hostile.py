@@ -562,6 +562,23 @@ def onset_floor_one_primitive_short(c: Corpus) -> bytes:
 
 
 @case("SBLM")
+def input_range_low_above_high(c: Corpus) -> bytes:
+    ranges = c.sblm.array("input_range").copy()
+    ranges[:, 0] = ranges[:, 1] + 1.0
+    return with_array(c.sblm, "input_range", npy(ranges))
+
+
+@case("SBLM")
+def input_range_one_column_short(c: Corpus) -> bytes:
+    return with_array(c.sblm, "input_range", npy(c.sblm.array("input_range")[:, :, :-1]))
+
+
+@case("SBLM")
+def input_range_1e300(c: Corpus) -> bytes:
+    return _scaled(c, "input_range", 1e300)
+
+
+@case("SBLM")
 def counts_beyond_int64(c: Corpus) -> bytes:
     counts = c.sblm.array("prim.counts").astype(np.uint64) + np.uint64(2**63)
     return with_array(c.sblm, "prim.counts", npy(counts))

@@ -79,6 +79,51 @@ def onset_floors(
     return floors
 
 
+def input_ranges(
+    windows: FloatArray, states: Sequence[int] | NDArray[np.integer[Any]], n: int
+) -> FloatArray:
+    """The range of sensor-window inputs each of ``n`` primitives' networks was trained on.
+
+    ``windows``: the training rows' sensor-window columns (normalized readings);
+    ``states``: each row's primitive. Returns ``(n, 2, columns)``: per primitive the
+    lowest (``[:, 0]``) and highest (``[:, 1]``) value of each column among its rows. A
+    primitive without rows gets the range of all rows. A network fed readings beyond
+    its own rows' (a start farther than any demonstrated, or a category the primitive
+    was decoded in but never trained on) extrapolates; ``SBLM(input_range=True)`` clips
+    its windows to this range instead.
+    """
+    values = np.asarray(windows, dtype=np.float64)
+    ids = np.asarray(states, dtype=np.int64)
+    ranges = np.zeros((int(n), 2, values.shape[1]))
+    if values.shape[0] == 0:
+        return ranges
+    ranges[:, 0] = values.min(axis=0)
+    ranges[:, 1] = values.max(axis=0)
+    present = np.unique(ids)
+    if present.size:
+        lo = np.full((int(n), values.shape[1]), np.inf)
+        hi = np.full((int(n), values.shape[1]), -np.inf)
+        np.minimum.at(lo, ids, values)
+        np.maximum.at(hi, ids, values)
+        ranges[present, 0] = lo[present]
+        ranges[present, 1] = hi[present]
+    return ranges
+
+
+def grown_ranges(old: FloatArray, fresh: FloatArray, states: Any) -> FloatArray:
+    """``input_ranges`` after an update: ``fresh`` (the new rows' ranges, every primitive
+    of the grown model) for a new primitive, the union of ``old`` and ``fresh`` for one with
+    new rows (its network is fine-tuned on them), ``old`` for the rest."""
+    grown = np.array(fresh, dtype=np.float64)
+    kept = old.shape[0]
+    seen = np.zeros(grown.shape[0], dtype=bool)
+    seen[np.unique(np.asarray(states, dtype=np.int64))] = True
+    mine = seen[:kept, None]
+    grown[:kept, 0] = np.where(mine, np.minimum(old[:, 0], grown[:kept, 0]), old[:, 0])
+    grown[:kept, 1] = np.where(mine, np.maximum(old[:, 1], grown[:kept, 1]), old[:, 1])
+    return grown
+
+
 def shifted_windows(
     features: FloatArray, n_channels: int, window: int, sigma: float, rng: np.random.Generator
 ) -> FloatArray:

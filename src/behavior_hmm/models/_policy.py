@@ -429,6 +429,9 @@ class SimplePolicy(GoalTracking, RateLimited):
         floors = getattr(model, "onset_floor_", None)
         #: ``onset_floor``: the earliest clock each primitive's network was trained on
         self._floors = floors if getattr(model, "onset_floor", False) else None
+        ranges = getattr(model, "input_range_", None)
+        #: ``input_range``: the sensor-window range each primitive's network was trained on
+        self._ranges = ranges if getattr(model, "input_range", False) else None
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
@@ -849,6 +852,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         floors = self._floors
         if floors is not None and state < floors.shape[0] and row[-1] < floors[state]:
             row[-1] = floors[state]  # the clock is the row's last feature; rewritten each cycle
+        ranges = self._ranges
+        if ranges is not None and state < ranges.shape[0]:
+            n = ranges.shape[2]  # the sensor windows lead the row; rewritten each cycle
+            np.clip(row[:n], ranges[state, 0], ranges[state, 1], out=row[:n])
         y = self._generator.step(row, state)
         if self._recover:
             y = self._closed(category, now, self._returned(x, y))

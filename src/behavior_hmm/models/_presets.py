@@ -288,6 +288,12 @@ OPTIONS: Final[tuple[Option, ...]] = (
         "rows began",
     ),
     Option(
+        "input_range",
+        {"SBLM": {"input_range": True}},
+        "each primitive's network reads its sensor windows clipped to the range its own "
+        "training rows held",
+    ),
+    Option(
         "auto_inputs",
         {"SBLM": {"inputs": AUTO_INPUTS}},
         "each simple behavior's input channels chosen from its demonstrations "

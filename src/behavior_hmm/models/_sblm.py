@@ -34,6 +34,8 @@ from behavior_hmm.generators._features import (
     DEFAULT_ONSET_CLOCK,
     FeatureLayout,
     command_features,
+    grown_ranges,
+    input_ranges,
     onset_floors,
     shifted_windows,
 )
@@ -262,6 +264,13 @@ class SBLM(LearnedBehavior):
         quarter of its grid, decoded mid-approach at rest, first turned the robot 8°
         and handed turn & approach back to its turn 13 times). ``False`` (thesis, and
         the default): the clock as it runs.
+    input_range
+        If true, each primitive's network reads its sensor windows clipped to the range
+        its own training rows held (``input_range_``): a start beyond the demonstrations
+        (an approach from 0.96 m learned from starts up to 0.8 m) reads as the farthest
+        its primitive was shown, instead of a value its network extrapolates from (a
+        heading-correction primitive decoded there turned the robot to 88° off the
+        object). ``False`` (thesis, and the default): the readings as they are.
     goal_braking
         If true (default; needs ``command_rate_limit`` > 0), when a ramp to rest at the
         rate limit started any later would overshoot the goal (predicted from
@@ -306,6 +315,11 @@ class SBLM(LearnedBehavior):
         among each primitive's generator training rows (0 for one without rows), the
         floor ``onset_floor`` holds its network's clock to; None without a clock, or in
         a model file written before it was learned.
+    input_range_ : ndarray of shape (n_primitives, 2, n_inputs * window) or None
+        Per primitive, the lowest (``[:, 0]``) and highest (``[:, 1]``) normalized value
+        of each sensor-window input among its generator training rows (a primitive
+        without rows: all rows'), the range ``input_range`` clips its network's windows
+        to; None in a model file written before it was learned.
     start_envelope_ : ndarray of shape (T, n_commands)
         The demonstrations' start-up envelope (``start_envelope``): row ``t`` is the
         largest ``|command - rest|`` of each command channel any demonstration reached
@@ -373,6 +387,7 @@ class SBLM(LearnedBehavior):
         mirror: bool = False,
         start_envelope: bool = False,
         onset_floor: bool = False,
+        input_range: bool = False,
         counting: str = "changes",
         smoothing: float = 0.0,
         path_self_loops: str = "drop",
@@ -409,6 +424,7 @@ class SBLM(LearnedBehavior):
         self.mirror = mirror
         self.start_envelope = start_envelope
         self.onset_floor = onset_floor
+        self.input_range = input_range
         self.counting = counting
         self.smoothing = smoothing
         self.path_self_loops = path_self_loops
@@ -420,7 +436,8 @@ class SBLM(LearnedBehavior):
         super().check_params()
         self._checked_inputs()
         flags = ("primitive_recognition", "stop_at_rest", "goal_braking", "learn_corrections")
-        for name in (*flags, "recover", "goal_fallback", "start_envelope", "onset_floor"):
+        options = ("recover", "goal_fallback", "start_envelope", "onset_floor", "input_range")
+        for name in (*flags, *options):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got {getattr(self, name)!r}")
         size = self.batch_size
@@ -572,6 +589,10 @@ class SBLM(LearnedBehavior):
             onset_floors(features[:, -1], gen_states, prim.n_categories_)
             if self.onset_clock > 0
             else None
+        )
+        # the sensor windows are a row's first n_inputs * window features (FeatureLayout)
+        self.input_range_: np.ndarray | None = input_ranges(
+            features[:, : len(inputs) * int(prim.window)], gen_states, prim.n_categories_
         )
         common: dict[str, Any] = {
             "window": int(prim.window),
@@ -757,6 +778,12 @@ class SBLM(LearnedBehavior):
             features, target, states, lengths, dataset.episode_ids
         )
         floors = self._grown_floors(features, gen_states, prim.n_categories_)
+        ranges = input_ranges(
+            features[:, : len(inputs) * int(prim.window)], gen_states, prim.n_categories_
+        )
+        old_ranges = getattr(self, "input_range_", None)
+        if old_ranges is not None:
+            ranges = grown_ranges(old_ranges, ranges, gen_states)
         old = self.generators_
         gens = type(old).from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
@@ -806,6 +833,7 @@ class SBLM(LearnedBehavior):
         self.wheel_response_ = wheels
         self.start_envelope_ = envelope
         self.onset_floor_ = floors
+        self.input_range_ = ranges
         # the old rows are not kept: the old radius, or the new rows' from the moved prototypes
         self.reach_radius_ = max(float(getattr(self, "reach_radius_", 0.0)), reach)
         self.rest_values_ = {c: float(np.median(stops[:, j])) for j, c in enumerate(inputs)}
@@ -1031,6 +1059,9 @@ class SBLM(LearnedBehavior):
         floors = getattr(self, "onset_floor_", None)
         if floors is not None:
             arrays["onset_floor"] = floors
+        ranges = getattr(self, "input_range_", None)
+        if ranges is not None:
+            arrays["input_range"] = ranges
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
             arrays[f"{prefix}.prototypes"] = net.prototypes_
             arrays[f"{prefix}.counts"] = net.counts_
@@ -1094,6 +1125,7 @@ class SBLM(LearnedBehavior):
         _modelfile.check_pipeline(pipeline)
         names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
         names.update(("stops", "command_rates", "wheel_response", "start_envelope", "onset_floor"))
+        names.add("input_range")
         extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
         if extra:
             raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
@@ -1189,6 +1221,19 @@ class SBLM(LearnedBehavior):
             if not np.all((floors >= 0.0) & (floors <= 1.0)):
                 raise ModelFileError("array 'onset_floor' must lie in [0, 1]")
             model.onset_floor_ = np.array(floors, dtype=np.float64)
+        model.input_range_ = None  # files written before it was learned have none
+        if "input_range" in arrays:
+            ranges = _modelfile.check_array(arrays, "input_range", ndim=3)
+            columns = len(inputs) * int(model.generators_.window)
+            if ranges.shape != (model.generators_.n_primitives_, 2, columns):
+                raise ModelFileError(
+                    "array 'input_range' must be primitives x 2 x the windows' inputs"
+                )
+            if np.abs(ranges).max(initial=0.0) > _modelfile.MAX_ABS_VALUE:
+                raise ModelFileError("array 'input_range' holds absurd values")
+            if not np.all(ranges[:, 0] <= ranges[:, 1]):
+                raise ModelFileError("array 'input_range' has a low above its high")
+            model.input_range_ = np.array(ranges, dtype=np.float64)
         return model
 
 

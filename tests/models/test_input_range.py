@@ -1,0 +1,90 @@
+"""``SBLM(input_range=True)``: each primitive's network reads its sensor windows clipped
+to the range its own training rows held."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from behavior_hmm.generators import _motion
+from behavior_hmm.models import SBLM, load
+
+
+def _windows_read(
+    model: SBLM, env: Any, starts: list[dict[str, float]], monkeypatch: pytest.MonkeyPatch
+) -> list[tuple[int, np.ndarray]]:
+    """(primitive, sensor windows) of every generator step of runs from ``starts``."""
+    n = len(model.inputs_) * int(model.generators_.window)
+    seen: list[tuple[int, np.ndarray]] = []
+    original = _motion.MotionGenerators.predict_one
+
+    def recording(self: Any, x: np.ndarray, primitive: int) -> np.ndarray:
+        seen.append((int(primitive), np.array(x[:n])))
+        return original(self, x, primitive)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(_motion.MotionGenerators, "predict_one", recording)
+        for start in starts:
+            model.generate(env, start=start, seed=0)
+    return seen
+
+
+def _outside(ranges: np.ndarray, reads: list[tuple[int, np.ndarray]]) -> int:
+    """How many reads hold a window value outside their primitive's range."""
+    return sum(
+        bool(np.any((x < ranges[p, 0] - 1e-12) | (x > ranges[p, 1] + 1e-12))) for p, x in reads
+    )
+
+
+def test_ranges_are_learned_from_the_training_rows(turn_model: SBLM) -> None:
+    ranges = turn_model.input_range_
+    assert ranges is not None
+    columns = len(turn_model.inputs_) * int(turn_model.generators_.window)
+    assert ranges.shape == (turn_model.primitives_.n_categories_, 2, columns)
+    assert np.all(ranges[:, 0] <= ranges[:, 1])
+    # each primitive holds a part of the turn: narrower than all the rows together
+    overall = ranges[:, 1].max(axis=0) - ranges[:, 0].min(axis=0)
+    assert np.all(ranges[:, 1] - ranges[:, 0] <= overall + 1e-12)
+    assert np.median(ranges[:, 1, 0] - ranges[:, 0, 0]) < 0.5 * overall[0]
+
+
+def test_a_network_reads_no_window_beyond_its_rows(
+    turn_model: SBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    ranges = turn_model.input_range_
+    assert ranges is not None
+    starts = [{"angle": a, "distance": 0.5} for a in (-179.0, -95.0, -35.0, 25.0, 179.0)]
+    plain = _windows_read(turn_model, kinematic_env, starts, monkeypatch)
+    # the readings as they are: some primitive decoded at these starts reads windows
+    # no row of its own held
+    assert _outside(ranges, plain) > 0
+    view = copy.copy(turn_model)
+    view.input_range = True
+    held = _windows_read(view, kinematic_env, starts, monkeypatch)
+    assert _outside(ranges, held) == 0
+    # and the runs still reach their goals
+    for start in starts:
+        assert view.generate(kinematic_env, start=start, seed=0).goal_reached, start
+
+
+def test_ranges_are_saved_and_grown(turn_model: SBLM, turn_data: Any, tmp_path: Path) -> None:
+    path = tmp_path / "turn.bhmm"
+    turn_model.save(path)
+    np.testing.assert_array_equal(load(path).input_range_, turn_model.input_range_)
+    n = len(turn_data)
+    first = turn_data.subset(np.arange(n // 2))
+    second = turn_data.subset(np.arange(n // 2, n))
+    model = SBLM(inputs=("angle",), epochs=2, random_state=0).fit(first)
+    before = model.input_range_
+    assert before is not None
+    grown = copy.deepcopy(model).partial_fit(second)
+    after = grown.input_range_
+    assert after is not None and after.shape[0] == grown.primitives_.n_categories_
+    # an old primitive's network only gains rows: its range can only widen
+    kept = before.shape[0]
+    assert np.all(after[:kept, 0] <= before[:, 0]) and np.all(after[:kept, 1] >= before[:, 1])
+    assert np.all(after[:, 0] <= after[:, 1])
