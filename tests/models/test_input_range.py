@@ -52,23 +52,49 @@ def test_ranges_are_learned_from_the_training_rows(turn_model: SBLM) -> None:
     assert np.median(ranges[:, 1, 0] - ranges[:, 0, 0]) < 0.5 * overall[0]
 
 
-def test_a_network_reads_no_window_beyond_its_rows(
+def test_a_start_beyond_every_row_reads_as_its_primitive_was_shown(
     turn_model: SBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     ranges = turn_model.input_range_
     assert ranges is not None
-    starts = [{"angle": a, "distance": 0.5} for a in (-179.0, -95.0, -35.0, 25.0, 179.0)]
-    plain = _windows_read(turn_model, kinematic_env, starts, monkeypatch)
-    # the readings as they are: some primitive decoded at these starts reads windows
-    # no row of its own held
-    assert _outside(ranges, plain) > 0
+    start = {"angle": 179.0, "distance": 0.5}
+    assert 179.0 / 180.0 > ranges[:, 1].max()  # beyond every row (angles normalized /180)
+    plain = _windows_read(turn_model, kinematic_env, [start], monkeypatch)
+    # the readings as they are: the first network reads a bearing none of its rows held
+    assert _outside(ranges, plain[:1]) == 1
     view = copy.copy(turn_model)
     view.input_range = True
-    held = _windows_read(view, kinematic_env, starts, monkeypatch)
-    assert _outside(ranges, held) == 0
-    # and the runs still reach their goals
-    for start in starts:
-        assert view.generate(kinematic_env, start=start, seed=0).goal_reached, start
+    held = _windows_read(view, kinematic_env, [start], monkeypatch)
+    assert _outside(ranges, held[:1]) == 0
+    assert view.generate(kinematic_env, start=start, seed=0).goal_reached
+
+
+def test_a_deviation_after_the_start_stays_visible(
+    turn_model: SBLM, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Once the readings have been inside the rows' range the windows are not clipped: a
+    bearing that drifts beyond what any row held reaches the network that corrects it."""
+    ranges = turn_model.input_range_
+    assert ranges is not None
+    view = copy.copy(turn_model)
+    view.input_range = True
+    n = len(view.inputs_) * int(view.generators_.window)
+    seen: list[tuple[int, np.ndarray]] = []
+    original = _motion.MotionGenerators.predict_one
+
+    def recording(self: Any, x: np.ndarray, primitive: int) -> np.ndarray:
+        seen.append((int(primitive), np.array(x[:n])))
+        return original(self, x, primitive)
+
+    monkeypatch.setattr(_motion.MotionGenerators, "predict_one", recording)
+    policy = view.policy({"angle": 0.0})
+    for angle in [40.0] * 20 + [179.0] * 80:  # inside, then pushed beyond every row
+        out = policy.step(
+            {"angle": angle, "angular_velocity": 0.0, "distance": 0.5, "linear_velocity": 0.0}
+        )
+        assert not out.done
+    late = [(p, x) for p, x in seen[20:] if x[-1] > ranges[:, 1].max()]
+    assert late and _outside(ranges, late) == len(late)
 
 
 def test_ranges_are_saved_and_grown(turn_model: SBLM, turn_data: Any, tmp_path: Path) -> None:

@@ -432,6 +432,20 @@ class SimplePolicy(GoalTracking, RateLimited):
         ranges = getattr(model, "input_range_", None)
         #: ``input_range``: the sensor-window range each primitive's network was trained on
         self._ranges = ranges if getattr(model, "input_range", False) else None
+        window = int(model.generators_.window)
+        #: each input channel's columns of a row's sensor windows (channel-major)
+        self._window_columns = [
+            slice(j * window, (j + 1) * window) for j in range(len(self._channels))
+        ]
+        #: ``input_range``: each input's range over all primitives' rows, and whether this
+        #: run's readings have been inside it yet (until then its windows are clipped)
+        self._inside = np.zeros(len(self._channels), dtype=bool)
+        self._overall: FloatArray | None = None
+        if self._ranges is not None:
+            lo, hi = self._ranges[:, 0].min(axis=0), self._ranges[:, 1].max(axis=0)
+            self._overall = np.array(
+                [[lo[c].min(), hi[c].max()] for c in self._window_columns], dtype=np.float64
+            )
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
@@ -482,6 +496,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._prior = self._log_pi
         self._features.reset()
         self._generator.reset()
+        self._inside[:] = False
         self._travel = np.zeros(len(self._channels))
         self._limit_reset()
         self._brake_reset()
@@ -852,10 +867,16 @@ class SimplePolicy(GoalTracking, RateLimited):
         floors = self._floors
         if floors is not None and state < floors.shape[0] and row[-1] < floors[state]:
             row[-1] = floors[state]  # the clock is the row's last feature; rewritten each cycle
-        ranges = self._ranges
-        if ranges is not None and state < ranges.shape[0]:
-            n = ranges.shape[2]  # the sensor windows lead the row; rewritten each cycle
-            np.clip(row[:n], ranges[state, 0], ranges[state, 1], out=row[:n])
+        ranges, overall = self._ranges, self._overall
+        if ranges is not None and overall is not None and state < ranges.shape[0]:
+            # a channel is held to its primitive's range until the run's readings have
+            # been inside all the rows' range: a start beyond the demonstrations reads as
+            # the nearest its primitive was shown; once inside, a deviation the rows never
+            # held (a bearing drifting off) stays visible to the network that corrects it
+            self._inside |= (x >= overall[:, 0]) & (x <= overall[:, 1])
+            for j in np.flatnonzero(~self._inside):
+                cols = self._window_columns[j]  # the windows lead the row; rewritten each cycle
+                np.clip(row[cols], ranges[state, 0, cols], ranges[state, 1, cols], out=row[cols])
         y = self._generator.step(row, state)
         if self._recover:
             y = self._closed(category, now, self._returned(x, y))

@@ -290,8 +290,8 @@ OPTIONS: Final[tuple[Option, ...]] = (
     Option(
         "input_range",
         {"SBLM": {"input_range": True}},
-        "each primitive's network reads its sensor windows clipped to the range its own "
-        "training rows held",
+        "a run that starts beyond the demonstrations reads each input clipped to the range "
+        "its primitive's rows held, until the input has been inside all the rows' range",
     ),
     Option(
         "auto_inputs",

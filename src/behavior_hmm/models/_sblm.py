@@ -265,12 +265,14 @@ class SBLM(LearnedBehavior):
         and handed turn & approach back to its turn 13 times). ``False`` (thesis, and
         the default): the clock as it runs.
     input_range
-        If true, each primitive's network reads its sensor windows clipped to the range
-        its own training rows held (``input_range_``): a start beyond the demonstrations
-        (an approach from 0.96 m learned from starts up to 0.8 m) reads as the farthest
-        its primitive was shown, instead of a value its network extrapolates from (a
-        heading-correction primitive decoded there turned the robot to 88° off the
-        object). ``False`` (thesis, and the default): the readings as they are.
+        If true, a run that starts beyond the demonstrations has each input's windows
+        clipped to the range its primitive's training rows held (``input_range_``) until
+        that input's readings have been inside the range of all the rows: an approach
+        from 0.96 m learned from starts up to 0.8 m reads as the farthest its primitive
+        was shown, instead of a value its network extrapolates from (a heading-correction
+        primitive decoded there turned the robot to 88° off the object). Once inside, a
+        deviation the rows never held (a bearing drifting off) stays visible to the
+        network. ``False`` (thesis, and the default): the readings as they are.
     goal_braking
         If true (default; needs ``command_rate_limit`` > 0), when a ramp to rest at the
         rate limit started any later would overshoot the goal (predicted from
