@@ -114,3 +114,15 @@ def test_ranges_are_saved_and_grown(turn_model: SBLM, turn_data: Any, tmp_path: 
     kept = before.shape[0]
     assert np.all(after[:kept, 0] <= before[:, 0]) and np.all(after[:kept, 1] >= before[:, 1])
     assert np.all(after[:, 0] <= after[:, 1])
+
+
+def test_a_model_without_ranges_stays_without_them_when_grown(turn_data: Any) -> None:
+    """A model file written before ``input_range_`` was learned: its old primitives' rows
+    are gone, so an update cannot know their ranges and learns none."""
+    n = len(turn_data)
+    model = SBLM(inputs=("angle",), epochs=2, random_state=0).fit(
+        turn_data.subset(np.arange(n // 2))
+    )
+    model.input_range_ = None
+    grown = model.partial_fit(turn_data.subset(np.arange(n // 2, n)))
+    assert grown.input_range_ is None

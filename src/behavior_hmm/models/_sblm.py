@@ -780,12 +780,15 @@ class SBLM(LearnedBehavior):
             features, target, states, lengths, dataset.episode_ids
         )
         floors = self._grown_floors(features, gen_states, prim.n_categories_)
-        ranges = input_ranges(
-            features[:, : len(inputs) * int(prim.window)], gen_states, prim.n_categories_
-        )
+        # a model file written before input_range_ was learned stays without it: the old
+        # primitives' rows are not kept, so their ranges cannot be known
         old_ranges = getattr(self, "input_range_", None)
+        ranges = None
         if old_ranges is not None:
-            ranges = grown_ranges(old_ranges, ranges, gen_states)
+            fresh = input_ranges(
+                features[:, : len(inputs) * int(prim.window)], gen_states, prim.n_categories_
+            )
+            ranges = grown_ranges(old_ranges, fresh, gen_states)
         old = self.generators_
         gens = type(old).from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
