@@ -6,7 +6,7 @@ import itertools
 import math
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any, cast
+from typing import Any, Final, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -61,6 +61,17 @@ FloatArray = NDArray[np.float64]
 #: Goal channels (and nominal goals) of a dataset whose metadata names none (a log
 #: imported without a registered behavior): the data contract's two goal channels.
 _DEFAULT_GOALS = {"angle": 0.0, "distance": 0.0}
+#: Learned arrays a model file carries when the model has them (array name, attribute);
+#: a file written before one was learned lacks it.
+LEARNED_ARRAYS: Final[tuple[tuple[str, str], ...]] = (
+    ("stops", "stops_"),
+    ("command_rates", "command_rates_"),
+    ("wheel_response", "wheel_response_"),
+    ("start_envelope", "start_envelope_"),
+    ("onset_floor", "onset_floor_"),
+    ("input_range", "input_range_"),
+)
+
 #: Most channels a model file's chosen inputs may list (select_inputs' max_inputs is 3).
 _MAX_AUTO_INPUTS = 64
 
@@ -1051,22 +1062,10 @@ class SBLM(LearnedBehavior):
         for prefix, part in (("hmm", self.hmm_), ("gen", self.generators_)):
             for name, arr in part.to_arrays().items():
                 arrays[f"{prefix}.{name}"] = arr
-        if getattr(self, "stops_", None) is not None:
-            arrays["stops"] = self.stops_
-        if getattr(self, "command_rates_", None) is not None:
-            arrays["command_rates"] = self.command_rates_
-        wheels = getattr(self, "wheel_response_", None)
-        if wheels is not None:
-            arrays["wheel_response"] = wheels
-        envelope = getattr(self, "start_envelope_", None)
-        if envelope is not None:
-            arrays["start_envelope"] = envelope
-        floors = getattr(self, "onset_floor_", None)
-        if floors is not None:
-            arrays["onset_floor"] = floors
-        ranges = getattr(self, "input_range_", None)
-        if ranges is not None:
-            arrays["input_range"] = ranges
+        for name, attribute in LEARNED_ARRAYS:
+            value = getattr(self, attribute, None)
+            if value is not None:
+                arrays[name] = value
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
             arrays[f"{prefix}.prototypes"] = net.prototypes_
             arrays[f"{prefix}.counts"] = net.counts_
@@ -1129,8 +1128,7 @@ class SBLM(LearnedBehavior):
             raise ModelFileError("pipeline channels do not match the inputs")
         _modelfile.check_pipeline(pipeline)
         names = {f"{p}.{n}" for p in ("prim", "obs") for n in ("prototypes", "counts", "dcm_scale")}
-        names.update(("stops", "command_rates", "wheel_response", "start_envelope", "onset_floor"))
-        names.add("input_range")
+        names.update(name for name, _ in LEARNED_ARRAYS)
         extra = sorted(k for k in arrays if k not in names and not k.startswith(("hmm.", "gen.")))
         if extra:
             raise ModelFileError(f"unexpected arrays: {', '.join(extra[:5])}")
