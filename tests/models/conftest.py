@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import copy
+from typing import Any
+
+import numpy as np
 import pytest
 
 from behavior_hmm.models import CBLM, SBLM
@@ -17,3 +21,15 @@ def ta_model(turn_model: SBLM) -> CBLM:
     ta_data = collect("turn-approach", starts, sim="kinematic", seed=0)
     model = CBLM(inputs=("distance", "angle"), components=[turn_model, approach])
     return model.fit(ta_data)
+
+
+@pytest.fixture(scope="session")
+def half_and_grown(turn_data: Any) -> tuple[SBLM, SBLM]:
+    """A turn SBLM fitted on the first half of the shared turn demonstrations, and a copy
+    grown by ``partial_fit`` on the second half (the learned arrays' growth)."""
+    n = len(turn_data)
+    model = SBLM(inputs=("angle",), epochs=2, random_state=0).fit(
+        turn_data.subset(np.arange(n // 2))
+    )
+    grown = copy.deepcopy(model).partial_fit(turn_data.subset(np.arange(n // 2, n)))
+    return model, grown

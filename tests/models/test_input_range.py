@@ -14,10 +14,9 @@ from behavior_hmm.generators import _motion
 from behavior_hmm.models import SBLM, load
 
 
-def _windows_read(
-    model: SBLM, env: Any, starts: list[dict[str, float]], monkeypatch: pytest.MonkeyPatch
-) -> list[tuple[int, np.ndarray]]:
-    """(primitive, sensor windows) of every generator step of runs from ``starts``."""
+def _record_windows(model: SBLM, patch: pytest.MonkeyPatch) -> list[tuple[int, np.ndarray]]:
+    """Record (primitive, sensor windows) of every generator step from now on (policies
+    made after this call)."""
     n = len(model.inputs_) * int(model.generators_.window)
     seen: list[tuple[int, np.ndarray]] = []
     original = _motion.MotionGenerators.predict_one
@@ -26,8 +25,16 @@ def _windows_read(
         seen.append((int(primitive), np.array(x[:n])))
         return original(self, x, primitive)
 
+    patch.setattr(_motion.MotionGenerators, "predict_one", recording)
+    return seen
+
+
+def _windows_read(
+    model: SBLM, env: Any, starts: list[dict[str, float]], monkeypatch: pytest.MonkeyPatch
+) -> list[tuple[int, np.ndarray]]:
+    """(primitive, sensor windows) of every generator step of runs from ``starts``."""
     with monkeypatch.context() as patch:
-        patch.setattr(_motion.MotionGenerators, "predict_one", recording)
+        seen = _record_windows(model, patch)
         for start in starts:
             model.generate(env, start=start, seed=0)
     return seen
@@ -78,15 +85,7 @@ def test_a_deviation_after_the_start_stays_visible(
     assert ranges is not None
     view = copy.copy(turn_model)
     view.input_range = True
-    n = len(view.inputs_) * int(view.generators_.window)
-    seen: list[tuple[int, np.ndarray]] = []
-    original = _motion.MotionGenerators.predict_one
-
-    def recording(self: Any, x: np.ndarray, primitive: int) -> np.ndarray:
-        seen.append((int(primitive), np.array(x[:n])))
-        return original(self, x, primitive)
-
-    monkeypatch.setattr(_motion.MotionGenerators, "predict_one", recording)
+    seen = _record_windows(view, monkeypatch)
     policy = view.policy({"angle": 0.0})
     for angle in [40.0] * 20 + [179.0] * 80:  # inside, then pushed beyond every row
         out = policy.step(
@@ -97,17 +96,15 @@ def test_a_deviation_after_the_start_stays_visible(
     assert late and _outside(ranges, late) == len(late)
 
 
-def test_ranges_are_saved_and_grown(turn_model: SBLM, turn_data: Any, tmp_path: Path) -> None:
+def test_ranges_are_saved_and_grown(
+    turn_model: SBLM, half_and_grown: tuple[SBLM, SBLM], tmp_path: Path
+) -> None:
     path = tmp_path / "turn.bhmm"
     turn_model.save(path)
     np.testing.assert_array_equal(load(path).input_range_, turn_model.input_range_)
-    n = len(turn_data)
-    first = turn_data.subset(np.arange(n // 2))
-    second = turn_data.subset(np.arange(n // 2, n))
-    model = SBLM(inputs=("angle",), epochs=2, random_state=0).fit(first)
+    model, grown = half_and_grown
     before = model.input_range_
     assert before is not None
-    grown = copy.deepcopy(model).partial_fit(second)
     after = grown.input_range_
     assert after is not None and after.shape[0] == grown.primitives_.n_categories_
     # an old primitive's network only gains rows: its range can only widen

@@ -67,17 +67,15 @@ def test_a_network_reads_no_clock_earlier_than_it_was_trained_on(
         assert view.generate(kinematic_env, start=start, seed=0).goal_reached, start
 
 
-def test_floors_are_saved_and_grown(turn_model: SBLM, turn_data: Any, tmp_path: Path) -> None:
+def test_floors_are_saved_and_grown(
+    turn_model: SBLM, half_and_grown: tuple[SBLM, SBLM], tmp_path: Path
+) -> None:
     path = tmp_path / "turn.bhmm"
     turn_model.save(path)
     np.testing.assert_array_equal(load(path).onset_floor_, turn_model.onset_floor_)
-    n = len(turn_data)
-    first = turn_data.subset(np.arange(n // 2))
-    second = turn_data.subset(np.arange(n // 2, n))
-    model = SBLM(inputs=("angle",), epochs=2, random_state=0).fit(first)
+    model, grown = half_and_grown
     before = model.onset_floor_
     assert before is not None
-    grown = copy.deepcopy(model).partial_fit(second)
     after = grown.onset_floor_
     assert after is not None and after.shape == (grown.primitives_.n_categories_,)
     # an old primitive's network only gains rows: its floor can only fall
