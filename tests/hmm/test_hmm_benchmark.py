@@ -42,7 +42,7 @@ def test_bench_hmm_with_numba_times_the_numpy_path_too() -> None:
 
 
 def test_bench_hmm_on_the_numpy_kernel_reports_it(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(impl, "_kernel_setting", "numpy")
+    monkeypatch.setattr(impl._switch, "setting", "numpy")
     results = _run()
     assert results["kernel"] == "numpy" and "jit_warmup_s" not in results
     _check_rows(results)

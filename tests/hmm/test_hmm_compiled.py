@@ -170,7 +170,7 @@ def spy(monkeypatch: pytest.MonkeyPatch) -> Iterator[_Spy]:
     monkeypatch.setattr(
         _compiled, "kernels", lambda: _compiled.Kernels(spy.forward, spy.forward_sparse, spy.follow)
     )
-    monkeypatch.setattr(impl, "_kernel_setting", "auto")
+    monkeypatch.setattr(impl._switch, "setting", "auto")
     yield spy
 
 
@@ -210,7 +210,7 @@ def test_set_kernel_returns_the_previous_setting(spy: _Spy) -> None:
 def test_set_kernel_refuses_unknown_kernels_and_numba_without_numba(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr(impl, "_kernel_setting", "auto")
+    monkeypatch.setattr(impl._switch, "setting", "auto")
     unknown: Any = "cuda"
     with pytest.raises(ValueError, match="unknown Viterbi kernel 'cuda'"):
         set_kernel(unknown)
@@ -218,7 +218,7 @@ def test_set_kernel_refuses_unknown_kernels_and_numba_without_numba(
     assert viterbi_kernel() == "numpy"
     with pytest.raises(ImportError, match=r"behavior-hmm\[fast\]"):
         set_kernel("numba")
-    assert impl._kernel_setting == "auto"
+    assert impl._switch.setting == "auto"
 
 
 def test_importing_the_package_does_not_import_numba() -> None:
@@ -236,7 +236,7 @@ def test_a_plan_never_loads_the_compiled_kernel(monkeypatch: pytest.MonkeyPatch)
     from behavior_hmm.hmm import BehaviorHMM
 
     loaded: list[bool] = []
-    monkeypatch.setattr(impl, "_kernel_setting", "auto")
+    monkeypatch.setattr(impl._switch, "setting", "auto")
     monkeypatch.setattr(_compiled, "kernels", lambda: loaded.append(True))
     hmm = BehaviorHMM(n_states=2, n_observations=3, on_impossible="emissions").fit(
         np.array([0, 0, 1, 1, 0, 1]), np.array([0, 1, 2, 2, 0, 2])

@@ -96,7 +96,7 @@ def test_blocked_viterbi_matches_hmmlearn(
     import behavior_hmm.hmm._viterbi as impl
 
     assert _ONE_BLOCK_MAX > 0
-    monkeypatch.setattr(impl, "_kernel_setting", "numpy")  # the blocks are numpy's
+    monkeypatch.setattr(impl._switch, "setting", "numpy")  # the blocks are numpy's
     monkeypatch.setattr(impl, "_ONE_BLOCK_MAX", 0)
     monkeypatch.setattr(impl, "_BLOCK_ELEMENTS", 7 * 23)
     hmm = _counted(rng, 23, 50, 3000, smoothing=0.5)

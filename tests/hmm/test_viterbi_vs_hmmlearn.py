@@ -138,7 +138,7 @@ _SHIPPED = {
 def forward(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> Iterator[str]:
     """Force one numpy forward pass of ``viterbi_log`` whatever the model's size and density."""
     name = str(request.param)
-    monkeypatch.setattr(impl, "_kernel_setting", "numpy")
+    monkeypatch.setattr(impl._switch, "setting", "numpy")
     monkeypatch.setattr(impl, "_PREDECESSORS_MAX_STATES", 10**9 if name == "predecessors" else 0)
     monkeypatch.setattr(impl, "_SPARSE_MAX_DENSITY", 1.0 if name == "sparse" else -1.0)
     monkeypatch.setattr(impl, "_ONE_BLOCK_MAX", 10**9 if name == "one block" else 0)
@@ -160,6 +160,6 @@ def test_every_forward_pass_gives_the_same_result(
         with pytest.MonkeyPatch.context() as shipped:
             for name, value in _SHIPPED.items():
                 shipped.setattr(impl, name, value)
-            shipped.setattr(impl, "_kernel_setting", kernel)
+            shipped.setattr(impl._switch, "setting", kernel)
             expected = viterbi_log(*log_tables(pi, a, b), obs)
         assert np.array_equal(states, expected[0]) and log_prob == expected[1]

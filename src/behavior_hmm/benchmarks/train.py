@@ -4,6 +4,11 @@ The datasets are collected once (not timed); each repeat fits a fresh model with
 seed, so every repeat does identical work. ``demonstrations_curve`` times the turn SBLM
 trained on ×1, ×2, ×4 and ×8 the default grid of demonstrations (the same angle range
 sampled k times as densely, collected on the kinematic simulator), one fit per point.
+
+``cobart_kernel`` names CobART's episode loops: ``"numba"`` with the ``fast`` extra, else
+``"numpy"``. With numba the turn & approach CBLM is also timed on the numpy loops in the
+same run (``train_complex_numpy_s_median``, ``complex_numpy_over_numba``): the same model
+to the bit, so the ratio is the compiled kernels' speed-up of that fit.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from behavior_hmm.benchmarks._common import default_dataset
+from behavior_hmm.cobart._compiled import cobart_kernel, set_kernel
 
 #: Multiples of the default turn grid in the curve.
 CURVE_FACTORS = (1, 2, 4, 8)
@@ -84,9 +90,20 @@ def run(quick: bool = False) -> dict[str, Any]:
         SBLM(inputs=("distance", "angle")).fit(approach),
     ]
     complex_data = default_dataset("turn-approach")
-    results["train_complex_s_median"] = _median_time(
-        lambda: CBLM(components, inputs=("distance", "angle")).fit(complex_data), repeats
-    )
+
+    def fit_complex() -> None:
+        CBLM(components, inputs=("distance", "angle")).fit(complex_data)
+
+    results["train_complex_s_median"] = _median_time(fit_complex, repeats)
+    results["cobart_kernel"] = cobart_kernel()
+    if results["cobart_kernel"] == "numba":
+        previous = set_kernel("numpy")
+        try:
+            numpy_s = _median_time(fit_complex, repeats)
+        finally:
+            set_kernel(previous)
+        results["train_complex_numpy_s_median"] = numpy_s
+        results["complex_numpy_over_numba"] = numpy_s / results["train_complex_s_median"]
     results["complex_samples"] = int(complex_data.n_samples)
     results["demonstrations_curve"] = demonstrations_curve(
         CURVE_FACTORS[:2] if quick else CURVE_FACTORS

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any, Final, NamedTuple, Self
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from behavior_hmm.cobart import _compiled as compiled
 from behavior_hmm.cobart._engine import (
     Engine,
     Layout,
@@ -232,14 +233,22 @@ class CobART(ParamsMixin):
             eng.load(old.prototypes(), old.counts)
         else:
             eng = Engine(layout)
-        labels: list[int] = []
-        for wt in _episode_features(layout, arr, lens, params.window):
-            fit_episode(eng, wt, params.a, params.rho, params.d, params.alpha, labels)
+        episodes = _episode_features(layout, arr, lens, params.window)
+        kern = compiled.active()
+        if kern is not None:  # the same categories, in one kernel call per stretch of steps
+            found = compiled.learn_episodes(
+                kern, eng, episodes, params.a, params.rho, params.d, params.alpha
+            )
+        else:
+            labels: list[int] = []
+            for wt in episodes:
+                fit_episode(eng, wt, params.a, params.rho, params.d, params.alpha, labels)
+            found = np.asarray(labels, dtype=np.int64)
         self._engine = eng
         self._fit = params
         self.dcm_scale_ = np.asarray(scale, dtype=np.float64).copy()
         self.n_features_in_ = n_ch
-        self.labels_ = np.asarray(labels, dtype=np.int64)
+        self.labels_ = found
         return self
 
     def fit_predict(

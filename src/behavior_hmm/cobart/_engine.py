@@ -12,8 +12,9 @@ through the expansion ``|p - z|^2 = |z|^2 - 2 p·z + |p|^2``::
 with ``G`` the (feature, group) matrix holding ``1 / (I e^2)`` (EDM) and
 ``1 / ((I - 1) s_c^2)`` (DCM) and ``w`` the group weights (``(1 - b)/C`` and ``b/C``
 times the part weight), which sum to 1. The expansion loses up to ~1e-8 of a score
-next to an exact match, so a winner's score is recomputed exactly (directly from
-the differences) whenever it lies within ``EXACT_BAND`` of 1 or of the vigilance.
+next to an exact match, so it only screens: the categories within its rounding margin
+of the least expanded mismatch are scored exactly (module ``_exact``), and the winner
+and its score are the exact ones.
 
 Every buffer is 64-byte aligned so that the same products take the same BLAS code
 path in the offline and in the live categorizer (bit-identical results).
@@ -23,18 +24,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Final
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
+
+from behavior_hmm.cobart import _compiled as compiled
+from behavior_hmm.cobart._exact import Groups, expansion_margin, refine, score_of
 
 if TYPE_CHECKING:
     from behavior_hmm.cobart._index import PrototypeIndex
 
 FloatArray = NDArray[np.float64]
-
-#: Scores within this of 1 or of the vigilance are recomputed exactly.
-EXACT_BAND: Final[float] = 1e-6
 
 
 def clipped_mismatch(s: FloatArray, wts: FloatArray, out: FloatArray | None = None) -> FloatArray:
@@ -183,6 +184,9 @@ class Engine:
         self.pt_col = self.pt[:, None]
         self.tmp = aligned_zeros(f)
         self.zl = aligned_zeros(f)
+        self.groups = Groups.of(layout.gs, layout.wts)
+        self.zmax = np.zeros(g)
+        """An upper bound on every category's group norms ``|z|^2_g`` (for the screen)."""
         self._alloc(max(int(capacity), 1))
 
     def _alloc(self, capacity: int) -> None:
@@ -214,6 +218,7 @@ class Engine:
     def load(self, protos: FloatArray, counts: Sequence[int]) -> None:
         """Replace all categories by feature rows ``protos`` ``(K, F)`` with win ``counts``."""
         k = protos.shape[0]
+        self.zmax[:] = 0.0
         capacity = self.capacity
         while capacity < k:
             capacity *= 2
@@ -245,7 +250,14 @@ class Engine:
     def _set_norms(self, row: FloatArray) -> None:
         f = self.F
         np.multiply(row[:f], row[:f], out=self.tmp)
-        np.dot(self.tmp, self.gs, out=row[f : f + self.NG])
+        norms = row[f : f + self.NG]
+        np.dot(self.tmp, self.gs, out=norms)
+        np.maximum(self.zmax, norms, out=self.zmax)
+
+    def margin(self) -> float:
+        """:func:`~behavior_hmm.cobart._exact.expansion_margin` of the current query ``pt``
+        (``paug`` set for it) against these categories."""
+        return expansion_margin(self.pn2.tolist(), self.zmax.tolist(), self.groups, self.width)
 
     def add(self, pt: FloatArray, count: int = 1) -> int:
         """Append a category with prototype ``pt`` (features); returns its index.
@@ -279,12 +291,6 @@ class Engine:
         np.add(zr, tr, out=zr)
         self._fix_diffs(row)
         self._set_norms(row)
-
-    def exact_score(self, k: int, pt: FloatArray) -> float:
-        """Score of category ``k`` computed directly from the differences (no expansion)."""
-        d = self.zaug[k, : self.F] - pt
-        sq = np.sqrt((d * d) @ self.gs)
-        return max(0.0, 1.0 - float(np.minimum(sq, 1.0) @ self.wts))
 
     def prototypes(self) -> FloatArray:
         """Copy of the prototypes' feature rows ``(K, F)``."""
@@ -320,7 +326,7 @@ def fit_episode(
     zaug = eng.zaug
     rows = eng.rows
     z, s, v = zaug[:k_cnt], eng.s[:k_cnt], eng.v[:k_cnt]
-    hi = 1.0 - EXACT_BAND
+    groups, zmax, margin = eng.groups, eng.zmax, eng.margin
     append = labels.append
     for t in range(wt.shape[0]):
         if t == 0:
@@ -332,12 +338,8 @@ def fit_episode(
             np.dot(pt, top, out=pn2)
             np.dot(z, paug, out=s)
             clipped_mismatch(s, wts, out=v)
-            k = int(v.argmin())
-            score = 1.0 - float(v[k])
-            if score > hi or abs(score - rho) < EXACT_BAND:
-                score = eng.exact_score(k, pt)
-            elif score < 0.0:
-                score = 0.0
+            k, miss = refine(v, int(v.argmin()), margin(), z, pt.tolist(), groups)
+            score = score_of(miss)
         else:
             k = 0
             score = -1.0
@@ -354,6 +356,7 @@ def fit_episode(
                 np.subtract(z_hi, z_lo, out=zd)
             np.multiply(zk, zk, out=tmp)
             np.dot(tmp, gs, out=zn)
+            np.maximum(zmax, zn, out=zmax)
             np.multiply(zk, oma, out=zl)
         else:
             k = eng.add(pt)
@@ -402,38 +405,45 @@ class Predictor:
         self.pt = aligned_zeros(f)
         self.pt_col = self.pt[:, None]
         self.tmp = aligned_zeros(f)
+        self.groups = eng.groups
+        self.width = eng.width
+        self.zmax = self.zaug[:, f : f + g].max(axis=0) if k else np.zeros(g)
         from behavior_hmm.cobart._index import INDEX_MIN_CATEGORIES, PrototypeIndex
 
         self.index: PrototypeIndex | None = None
         """Searched instead of scoring every category from ``INDEX_MIN_CATEGORIES`` on."""
         if k >= INDEX_MIN_CATEGORIES:
             self.index = PrototypeIndex(self.zaug, self.gs, self.wts)
+        self._compiled: compiled.CompiledPredictor | None = None
 
     def best(self) -> tuple[int, float]:
         """Category of least mismatch for the current ``pt`` (``paug`` set for it) and
-        that mismatch: every category scored into ``v``, or the index searched."""
+        that mismatch, exact (module ``_exact``): every category screened into ``v``, or
+        the index searched."""
+        pt = self.pt.tolist()
         if self.index is not None:
-            return self.index.search(self.pt, self.paug)
+            return self.index.search(self.pt, self.paug, pt)
         np.dot(self.zaug, self.paug, out=self.s)
         v = clipped_mismatch(self.s, self.wts, out=self.v)
-        k = int(v.argmin())
-        return k, float(v[k])
-
-    def exact_score(self, k: int) -> float:
-        """Score of category ``k`` for the current ``pt``, directly from the differences."""
-        d = self.z[k] - self.pt
-        sq = np.sqrt((d * d) @ self.gs)
-        return max(0.0, 1.0 - float(np.minimum(sq, 1.0) @ self.wts))
+        margin = expansion_margin(self.pn2.tolist(), self.zmax.tolist(), self.groups, self.width)
+        return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 
     def episode(
         self, wt: FloatArray, labels: NDArray[np.int64], scores: FloatArray, offset: int
     ) -> None:
         """Categorize one episode (features ``(T, F)``) into ``labels``/``scores`` at ``offset``."""
+        kern = compiled.active()
+        if kern is not None and self.index is None:
+            if self._compiled is None:
+                from behavior_hmm.cobart._index import partition_weight
+
+                weight = partition_weight(self.gs, self.wts)
+                self._compiled = compiled.CompiledPredictor(self.z, self.omaz, self.groups, weight)
+            self._compiled.episode(kern, wt, self.a, labels, scores, offset)
+            return
         awt = wt * self.a
         pt, pt_col, omaz = self.pt, self.pt_col, self.omaz_rows
         top, pn2, gm2, best = self.top, self.pn2, self.gm2, self.best
-        rho = self.rho
-        hi = 1.0 - EXACT_BAND
         k = -1
         for t in range(wt.shape[0]):
             if k < 0:
@@ -443,10 +453,5 @@ class Predictor:
             np.multiply(gm2, pt_col, out=top)
             np.dot(pt, top, out=pn2)
             k, miss = best()
-            score = 1.0 - miss
-            if score > hi or abs(score - rho) < EXACT_BAND:
-                score = self.exact_score(k)
-            elif score < 0.0:
-                score = 0.0
             labels[offset + t] = k
-            scores[offset + t] = score
+            scores[offset + t] = score_of(miss)

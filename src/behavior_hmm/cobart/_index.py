@@ -11,12 +11,12 @@ bounding box of each leaf. Every similarity group's distance ``sqrt(S_g)`` is a 
 Euclidean norm on its own features, so the distance from the processed input ``p`` to a
 leaf's box bounds it from below for every prototype in the leaf, and, because ``min(1,
 ·)`` is monotone, ``LB = Σ_g w_g min(1, box distance_g)`` bounds the leaf's mismatch
-``r_k`` from below. A search scores the leaf of least bound (an upper bound ``U`` on the
-best mismatch), then the rows of every leaf with ``LB ≤ U + margin``, gathered into one
-product, and returns the least mismatch among them (ties to the lower category index, as
-``argmin`` breaks them). ``margin`` covers the rounding of the
-expansion the scores are computed with (module ``_engine``), so no prototype left out
-could have won: the winner is the full scan's, up to the last bit of a tie.
+``r_k`` from below. A search screens the leaf of least bound (an upper bound ``U`` on the
+best mismatch), then the rows of every leaf with ``LB ≤ U + 2 margin``, gathered into one
+product, and takes the exact winner among them (module ``_exact``: ties to the lowest
+category index). ``margin`` bounds the rounding of the expansion the screen is computed
+with (module ``_engine``), so no prototype left out could have won: the winner is the full
+scan's, up to the last bit of a tie.
 
 Not a third-party k-d tree (``scipy.spatial.cKDTree``): the mismatch is a weighted sum of
 clipped per-group distances, not one metric such trees search.
@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.cobart._engine import aligned_zeros, clipped_mismatch
+from behavior_hmm.cobart._exact import Groups, expansion_margin, refine
 
 FloatArray = NDArray[np.float64]
 
@@ -38,8 +39,6 @@ FloatArray = NDArray[np.float64]
 INDEX_MIN_CATEGORIES: Final[int] = 8_192
 #: Most prototypes per leaf of the partition.
 LEAF_SIZE: Final[int] = 128
-#: Relative rounding of one product term, times a safety factor (see ``_margin``).
-_ROUNDING: Final[float] = 16.0 * float(np.finfo(np.float64).eps)
 
 
 class PrototypeIndex:
@@ -60,8 +59,7 @@ class PrototypeIndex:
         f, g = gs.shape
         self.K, self.F, self.NG = k, f, g
         z = zaug[:, :f]
-        weight = np.sqrt(gs.sum(axis=1)) * wts[gs.argmax(axis=1)]
-        leaves = _partition(z * weight, LEAF_SIZE)
+        leaves = _partition(z * partition_weight(gs, wts), LEAF_SIZE)
         self.order = np.concatenate(leaves).astype(np.int64)
         sizes = np.array([leaf.size for leaf in leaves], dtype=np.int64)
         self.bounds = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
@@ -77,9 +75,10 @@ class PrototypeIndex:
         np.minimum.reduceat(zp, self.bounds[:-1], axis=0, out=self.lo)
         np.maximum.reduceat(zp, self.bounds[:-1], axis=0, out=self.hi)
         self.gs, self.wts = gs, wts
+        self.groups = Groups.of(gs, wts)
         # the largest |z|^2_g of any prototype, for the rounding margin
-        self._zmax = self.zaug[:, f : f + g].max(axis=0)
-        self._terms = float(zaug.shape[1])
+        self._zmax = self.zaug[:, f : f + g].max(axis=0).tolist()
+        self._terms = zaug.shape[1]
         self._d = np.empty((n_leaves, f))
         self._d2 = np.empty((n_leaves, f))
         self._lbg = np.empty((n_leaves, g))
@@ -89,15 +88,9 @@ class PrototypeIndex:
         """Prototypes scored by the last search (for benchmarks and tests)."""
 
     def _margin(self, paug: FloatArray) -> float:
-        """Bound on how far an expanded mismatch can fall below the exact one.
-
-        ``S_g`` sums ``F + G + 1`` products whose magnitudes add up to at most
-        ``2 (|z|^2_g + |p|^2_g)``; its rounding error ``e_g`` moves ``sqrt(S_g)`` by at
-        most ``sqrt(e_g)``.
-        """
-        pn = -0.5 * paug[self.F + self.NG]  # |p|^2_g
-        err = self._terms * _ROUNDING * 2.0 * (self._zmax + np.abs(pn))
-        return float(np.sqrt(err) @ self.wts) + 1e-12
+        """Bound on how far an expanded mismatch can lie from the exact one."""
+        pn2 = paug[self.F + self.NG].tolist()
+        return expansion_margin(pn2, self._zmax, self.groups, self._terms)
 
     def _first(self, leaf: int, paug: FloatArray) -> float:
         """Least mismatch among the prototypes of one leaf (an upper bound on the best)."""
@@ -106,10 +99,11 @@ class PrototypeIndex:
         np.dot(self.zaug[a:b], paug, out=s)
         return float(clipped_mismatch(s, self.wts).min())
 
-    def search(self, pt: FloatArray, paug: FloatArray) -> tuple[int, float]:
-        """Category of least mismatch for processed input ``pt`` and its mismatch.
+    def search(self, pt: FloatArray, paug: FloatArray, pt_list: list[float]) -> tuple[int, float]:
+        """Category of least mismatch for processed input ``pt`` and its exact mismatch.
 
-        ``paug`` is the predictor's ``(F + G + 1, G)`` query matrix for ``pt``.
+        ``paug`` is the predictor's ``(F + G + 1, G)`` query matrix for ``pt``;
+        ``pt_list`` the same input as a list of floats.
         """
         d, d2, lbg, lb = self._d, self._d2, self._lbg, self._lb
         np.subtract(self.lo, pt, out=d)
@@ -121,23 +115,31 @@ class PrototypeIndex:
         np.sqrt(lbg, out=lbg)
         np.minimum(lbg, 1.0, out=lbg)
         np.dot(lbg, self.wts, out=lb)
+        margin = self._margin(paug)
         upper = self._first(int(lb.argmin()), paug)
-        cand = np.flatnonzero(lb <= upper + self._margin(paug))
+        # a leaf is left out only if no prototype in it could be within the screen's
+        # reach of the exact winner (module ``_exact``)
+        cand = np.flatnonzero(lb <= upper + 2.0 * margin)
         # the candidate leaves' rows, gathered in one index array (no loop over leaves)
         sizes = self._sizes[cand]
         ends = np.cumsum(sizes)
         rows = np.arange(int(ends[-1]), dtype=np.int64)
         rows += np.repeat(self._starts[cand] - (ends - sizes), sizes)
         self.scored = rows.size
-        v = clipped_mismatch(self.zaug.take(rows, axis=0) @ paug, self.wts)
-        best = float(v.min())
-        # the lowest category index among the rows at the least mismatch (argmin's tie rule)
-        return int(self.order[rows[v == best]].min()), best
+        z = self.zaug.take(rows, axis=0)
+        v = clipped_mismatch(z @ paug, self.wts)
+        return refine(v, int(v.argmin()), margin, z, pt_list, self.groups, self.order[rows])
 
     def mismatches(self, paug: FloatArray, out: FloatArray, s: FloatArray) -> None:
         """Every category's mismatch, in category order, into ``out`` (``s``: (K, G) work)."""
         np.dot(self.zaug, paug, out=s)
         out[self.order] = clipped_mismatch(s, self.wts)
+
+
+def partition_weight(gs: FloatArray, wts: FloatArray) -> FloatArray:
+    """Per feature, the scale at which a partition of the prototypes splits along what
+    the mismatch weighs most (``gs``: the ``(F, G)`` group membership, ``wts``: weights)."""
+    return np.asarray(np.sqrt(gs.sum(axis=1)) * wts[gs.argmax(axis=1)])
 
 
 def _partition(points: FloatArray, leaf_size: int) -> list[NDArray[np.int64]]:

@@ -8,7 +8,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from behavior_hmm.cobart._engine import EXACT_BAND, aligned_zeros
+from behavior_hmm.cobart._engine import aligned_zeros
+from behavior_hmm.cobart._exact import score_of
 from behavior_hmm.errors import ConfigError, DatasetError
 
 if TYPE_CHECKING:
@@ -46,8 +47,8 @@ class LiveCategorizer:
         p = pred
         self._hot = (
             self._buf, self._views, self._raw, self._diff, self._wt, self._awt, i, c, p.a,
-            p.omaz_rows, p.pt, p.pt_col, p.gm2, p.top, p.pn2, self.rho, p.exact_score,
-            p.best, p.index is not None,
+            p.omaz_rows, p.pt, p.pt_col, p.gm2, p.top, p.pn2, self.rho, p.best,
+            p.index is not None,
         )  # fmt: skip
         self._stale = False
         self.reset()
@@ -105,8 +106,8 @@ class LiveCategorizer:
         if not all(map(math.isfinite, r.tolist())):
             raise DatasetError("NaN or infinite value in live reading")
         # fmt: off
-        (buf, views, raw, diff, wt, awt, i, c, a, omaz, pt, pt_col, gm2, top, pn2, rho, exact,
-         best, indexed) = self._hot
+        (buf, views, raw, diff, wt, awt, i, c, a, omaz, pt, pt_col, gm2, top, pn2, rho, best,
+         indexed) = self._hot
         # fmt: on
         pos = self._pos
         if pos < 0:
@@ -132,11 +133,7 @@ class LiveCategorizer:
         np.multiply(gm2, pt_col, out=top)
         np.dot(pt, top, out=pn2)
         k, miss = best()
-        score = 1.0 - miss
+        score = score_of(miss)
         self._stale = indexed  # the index scored only the categories that could win
-        if score > 1.0 - EXACT_BAND or abs(score - rho) < EXACT_BAND:
-            score = exact(k)
-        elif score < 0.0:
-            score = 0.0
         self._last = k
         return k, score < rho, score

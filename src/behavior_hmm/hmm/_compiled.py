@@ -18,12 +18,13 @@ one the numpy path forms, in the same order, so the results are identical to the
 from __future__ import annotations
 
 import functools
-import importlib
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
+
+from behavior_hmm._numba import compile_kernels
 
 #: numba signatures (C-contiguous arrays), compiled eagerly when :func:`kernels` first runs.
 _FORWARD_SIGNATURE = "void(float64[:, ::1], float64[:, ::1], float64[:, ::1], intp[:, ::1])"
@@ -60,17 +61,10 @@ def kernels() -> Kernels | None:
     Compiled (or loaded from numba's cache) on the first call; later calls return the
     same object.
     """
-    try:
-        numba = importlib.import_module("numba")
-    except ImportError:
-        return None
-    try:
-        return _compiled(numba, cache=True)
-    except RuntimeError:  # numba found no writable cache folder (a read-only install)
-        return _compiled(numba, cache=False)
+    return compile_kernels(_compiled)
 
 
-def _compiled(numba: Any, *, cache: bool) -> Kernels:
+def _compiled(numba: Any, cache: bool) -> Kernels:
     jit = numba.njit
     return Kernels(
         forward=jit(_FORWARD_SIGNATURE, cache=cache, nogil=True)(forward),

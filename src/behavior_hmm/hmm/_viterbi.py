@@ -10,13 +10,13 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from behavior_hmm._numba import KernelSetting, KernelSwitch
 from behavior_hmm.hmm import _compiled
 from behavior_hmm.hmm._tables import LogTable
 
 #: Log emissions: a dense (N, M) array, or a model's sparse :class:`LogTable`.
 Emissions = NDArray[np.float64] | LogTable
 
-KernelSetting = Literal["auto", "numba", "numpy"]
 
 #: Elements of the (rows, N) score buffer in one block of a large model: the block of
 #: scores stays in the cache between the add and the max (≈ 256 KB).
@@ -35,7 +35,7 @@ _SCALAR_MESSAGE_MAX = 64
 #: Dense messages (N-vectors) :class:`TreeViterbi` keeps, most recently asked for first.
 _DENSE_MESSAGES = 256
 #: Which forward pass :func:`viterbi_log` runs; see :func:`set_kernel`.
-_kernel_setting: KernelSetting = "auto"
+_switch = KernelSwitch("Viterbi", lambda: _compiled.kernels())  # looked up at each call
 
 
 def set_kernel(setting: KernelSetting) -> KernelSetting:
@@ -49,24 +49,17 @@ def set_kernel(setting: KernelSetting) -> KernelSetting:
         numba); ``"numpy"``: the numpy forward passes even when numba is installed (for
         tests and benchmarks: the results are identical, only the speed differs).
     """
-    global _kernel_setting
-    if setting not in ("auto", "numba", "numpy"):
-        raise ValueError(f"unknown Viterbi kernel {setting!r}: 'auto', 'numba' or 'numpy'")
-    if setting == "numba" and _compiled.kernels() is None:
-        raise ImportError("the numba kernel needs numba: pip install 'behavior-hmm[fast]'")
-    previous = _kernel_setting
-    _kernel_setting = setting
-    return previous
+    return _switch.set(setting)
 
 
 def viterbi_kernel() -> Literal["numba", "numpy"]:
     """The forward pass :func:`viterbi_log` runs now (on sequences of two or more steps)."""
-    return "numpy" if _kernels() is None else "numba"
+    return _switch.name()
 
 
 def _kernels() -> _compiled.Kernels | None:
     """The compiled kernels when the setting and the installation allow them."""
-    return None if _kernel_setting == "numpy" else _compiled.kernels()
+    return _switch.active()
 
 
 def viterbi_log(
