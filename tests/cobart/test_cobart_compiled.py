@@ -185,3 +185,15 @@ def test_the_live_stream_never_loads_the_kernels(monkeypatch: pytest.MonkeyPatch
     assert loaded == []
     model.categorize(x, lengths)  # offline, the switch is asked
     assert loaded
+
+
+@pytest.mark.usefixtures("both")
+def test_warm_compiles_both_kernels_before_any_fit() -> None:
+    code = (
+        "from behavior_hmm.cobart import _compiled as c; k = c.kernels();"
+        "assert not k.learn.signatures and not k.predict.signatures, 'compiled already';"
+        "c.warm(); assert k.learn.signatures and k.predict.signatures, 'not compiled';"
+        "c.set_kernel('numpy'); c.warm()"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr

@@ -180,6 +180,7 @@ def test_every_scheme_scores_every_learned_task_after_every_stage(tiny: dict[str
         assert len(entry["reference"]) == 5 and metrics["fwt"] is not None
     assert set(tiny["timings"]) == {
         "collect_s",
+        "kernels_s",
         "incremental_s",
         "full_refit_s",
         "bc_strong_finetuned_s",

@@ -111,6 +111,18 @@ def active() -> Kernels | None:
     return _switch.active()
 
 
+def warm() -> None:
+    """Load the kernels now, or compile them the first time on a machine (~4 s; later
+    processes load numba's cache, ~0.5 s), so that the first fit a caller times does not
+    pay for it. Nothing to do without numba or with the numpy paths chosen."""
+    if active() is None:
+        return
+    from behavior_hmm.cobart._cobart import CobART  # _cobart imports this module
+
+    x = np.linspace(-1.0, 1.0, 24).reshape(12, 2)
+    CobART(window=3).fit(x).categorize(x)
+
+
 class Leaves(NamedTuple):
     """A partition of categories ``0..n_indexed-1`` into leaves with bounding boxes."""
 
