@@ -102,9 +102,9 @@ def _groups() -> Groups:
 
 def test_refine_takes_the_exact_winner_over_the_screen() -> None:
     groups = _groups()
-    p = [0.1, 0.2, 0.3, 0.4, 0.5]
+    p = np.array([0.1, 0.2, 0.3, 0.4, 0.5])
     z = np.array([[0.1, 0.2, 0.3, 0.4, 0.5 + 2e-9], [0.1, 0.2, 0.3, 0.4, 0.5 + 1e-9]])
-    exact = [exact_mismatch(row.tolist(), p, groups) for row in z]
+    exact = [exact_mismatch(row, p, groups) for row in z]
     assert exact[1] < exact[0]
     # a screen whose rounding put category 0 first, within its margin
     v = np.array([exact[0] - 1e-9, exact[1]])
@@ -115,7 +115,7 @@ def test_refine_takes_the_exact_winner_over_the_screen() -> None:
 
 def test_refine_breaks_exact_ties_to_the_lowest_category() -> None:
     groups = _groups()
-    p = [0.0] * 5
+    p = np.zeros(5)
     z = np.array([[0.3, 0.0, 0.0, 0.0, 0.0], [0.0, 0.3, 0.0, 0.0, 0.0]])
     v = np.array([0.1, 0.1 - 1e-15])
     ids = np.array([7, 3])
@@ -148,7 +148,7 @@ def test_a_leafs_bound_never_exceeds_a_member_mismatch(data: tuple[np.ndarray, l
     for k in range(z.shape[0]):
         r = compiled._mismatch(z, k, p, groups.index, groups.pointer, gscale, gw, np.inf)
         assert bound <= r
-        assert r == exact_mismatch(z[k].tolist(), p.tolist(), groups)
+        assert r == exact_mismatch(z[k], p, groups)
 
 
 @pytest.mark.parametrize("kernel", ["numpy", "numba"])

@@ -30,7 +30,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.cobart import _compiled as compiled
-from behavior_hmm.cobart._exact import Groups, expansion_margin, refine, score_of
+from behavior_hmm.cobart._exact import (
+    ROUNDING,
+    Groups,
+    expansion_margin,
+    margin_of,
+    refine,
+    score_of,
+)
 
 if TYPE_CHECKING:
     from behavior_hmm.cobart._index import PrototypeIndex
@@ -338,7 +345,7 @@ def fit_episode(
             np.dot(pt, top, out=pn2)
             np.dot(z, paug, out=s)
             clipped_mismatch(s, wts, out=v)
-            k, miss = refine(v, int(v.argmin()), margin(), z, pt.tolist(), groups)
+            k, miss = refine(v, int(v.argmin()), margin(), z, pt, groups)
             score = score_of(miss)
         else:
             k = 0
@@ -407,7 +414,9 @@ class Predictor:
         self.tmp = aligned_zeros(f)
         self.groups = eng.groups
         self.width = eng.width
-        self.zmax = self.zaug[:, f : f + g].max(axis=0) if k else np.zeros(g)
+        zmax = self.zaug[:, f : f + g].max(axis=0) if k else np.zeros(g)
+        c = self.width * ROUNDING * 2.0
+        self._margin_args = ([c * float(zm) for zm in zmax], self.groups.weights, 0.5 * c)
         from behavior_hmm.cobart._index import INDEX_MIN_CATEGORIES, PrototypeIndex
 
         self.index: PrototypeIndex | None = None
@@ -420,12 +429,12 @@ class Predictor:
         """Category of least mismatch for the current ``pt`` (``paug`` set for it) and
         that mismatch, exact (module ``_exact``): every category screened into ``v``, or
         the index searched."""
-        pt = self.pt.tolist()
+        pt = self.pt
         if self.index is not None:
-            return self.index.search(self.pt, self.paug, pt)
+            return self.index.search(pt, self.paug)
         np.dot(self.zaug, self.paug, out=self.s)
         v = clipped_mismatch(self.s, self.wts, out=self.v)
-        margin = expansion_margin(self.pn2.tolist(), self.zmax.tolist(), self.groups, self.width)
+        margin = margin_of(self.pn2.tolist(), *self._margin_args)
         return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 
     def episode(

@@ -51,6 +51,9 @@ class Groups:
     index, pointer
         The same feature indices flattened, group ``g`` at ``index[pointer[g]:pointer[g+1]]``
         (for the compiled kernels).
+    slices
+        Per group, the slice of a feature row holding its features (a group's features
+        are evenly spaced: one channel of a window).
     """
 
     features: tuple[tuple[int, ...], ...]
@@ -58,6 +61,7 @@ class Groups:
     weights: tuple[float, ...]
     index: IntArray
     pointer: IntArray
+    slices: tuple[slice, ...]
 
     @classmethod
     def of(cls, gs: FloatArray, wts: FloatArray) -> Groups:
@@ -74,24 +78,38 @@ class Groups:
             scales.append(float(col[0]))
         flat = [j for f in feats for j in f]
         pointer = np.cumsum([0] + [len(f) for f in feats]).astype(np.int64)
+        slices = []
+        for f in feats:
+            step = f[1] - f[0] if len(f) > 1 else 1
+            sl = slice(f[0], f[-1] + 1, step)
+            if tuple(range(f[0], f[-1] + 1, step)) != f:
+                raise ValueError("a similarity group's features must be evenly spaced")
+            slices.append(sl)
         return cls(
             features=tuple(feats),
             scales=tuple(scales),
             weights=tuple(float(w) for w in wts),
             index=np.asarray(flat, dtype=np.int64),
             pointer=pointer,
+            slices=tuple(slices),
         )
 
 
-def exact_mismatch(z: list[float], p: list[float], groups: Groups) -> float:
-    """The mismatch of prototype features ``z`` to processed input ``p`` (both as lists
-    of floats), in the fixed order of operations every path follows."""
+def exact_mismatch(z: FloatArray, p: FloatArray, groups: Groups) -> float:
+    """The mismatch of prototype features ``z`` to processed input ``p``, in the fixed
+    order of operations every path follows.
+
+    The differences and their squares are elementwise (numpy forms them as a scalar loop
+    would); only the sums need the order, and they are formed here one by one.
+    """
+    d = z[: p.shape[0]] - p
+    np.multiply(d, d, out=d)
+    sq = d.tolist()
     r = 0.0
-    for feats, scale, w in zip(groups.features, groups.scales, groups.weights, strict=True):
+    for sl, scale, w in zip(groups.slices, groups.scales, groups.weights, strict=True):
         s = 0.0
-        for j in feats:
-            d = z[j] - p[j]
-            s += d * d
+        for x in sq[sl]:  # the group's features in increasing order
+            s += x
         c = math.sqrt(s * scale)
         r += w * (c if c < 1.0 else 1.0)
     return r
@@ -106,9 +124,18 @@ def expansion_margin(pn2: list[float], zmax: list[float], groups: Groups, terms:
     query matrix); ``zmax``: an upper bound on every prototype's ``|z|^2_g``.
     """
     c = terms * ROUNDING * 2.0
+    return margin_of(pn2, [c * zm for zm in zmax], groups.weights, 0.5 * c)
+
+
+def margin_of(
+    pn2: list[float], czmax: list[float], weights: tuple[float, ...], half_c: float
+) -> float:
+    """:func:`expansion_margin` with its constant parts given: ``czmax`` = ``c zmax_g`` and
+    ``half_c`` = ``c / 2``, ``c`` = ``2 terms ROUNDING`` (for a categorizer that scores
+    many inputs against the same categories)."""
     m = MARGIN_FLOOR
-    for w, zm, q in zip(groups.weights, zmax, pn2, strict=True):
-        m += w * math.sqrt(c * (zm + abs(0.5 * q)))
+    for w, cz, q in zip(weights, czmax, pn2, strict=True):
+        m += w * math.sqrt(cz + half_c * abs(q))
     return m
 
 
@@ -117,7 +144,7 @@ def refine(
     k: int,
     margin: float,
     z: FloatArray,
-    pt: list[float],
+    pt: FloatArray,
     groups: Groups,
     ids: IntArray | None = None,
 ) -> tuple[int, float]:
@@ -135,7 +162,7 @@ def refine(
     z
         Feature rows of the scored categories, row ``i`` for ``v[i]``.
     pt
-        The processed input, as a list of floats.
+        The processed input.
     groups
         The layout's groups.
     ids
@@ -146,13 +173,12 @@ def refine(
     -------
     category, mismatch
     """
-    near = np.flatnonzero(v <= v[k] + 2.0 * margin)
-    if near.size == 1:
-        i = int(near[0])
-        return (i if ids is None else int(ids[i])), exact_mismatch(z[i].tolist(), pt, groups)
+    reach = float(v[k]) + 2.0 * margin
+    if np.count_nonzero(v <= reach) == 1:  # almost always: the screen's winner alone
+        return (k if ids is None else int(ids[k])), exact_mismatch(z[k], pt, groups)
     best_id, best = -1, math.inf
-    for i in near.tolist():
-        r = exact_mismatch(z[i].tolist(), pt, groups)
+    for i in np.flatnonzero(v <= reach).tolist():
+        r = exact_mismatch(z[i], pt, groups)
         cat = i if ids is None else int(ids[i])
         if r < best or (r == best and cat < best_id):
             best_id, best = cat, r

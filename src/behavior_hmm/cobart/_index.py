@@ -99,11 +99,10 @@ class PrototypeIndex:
         np.dot(self.zaug[a:b], paug, out=s)
         return float(clipped_mismatch(s, self.wts).min())
 
-    def search(self, pt: FloatArray, paug: FloatArray, pt_list: list[float]) -> tuple[int, float]:
+    def search(self, pt: FloatArray, paug: FloatArray) -> tuple[int, float]:
         """Category of least mismatch for processed input ``pt`` and its exact mismatch.
 
-        ``paug`` is the predictor's ``(F + G + 1, G)`` query matrix for ``pt``;
-        ``pt_list`` the same input as a list of floats.
+        ``paug`` is the predictor's ``(F + G + 1, G)`` query matrix for ``pt``.
         """
         d, d2, lbg, lb = self._d, self._d2, self._lbg, self._lb
         np.subtract(self.lo, pt, out=d)
@@ -128,7 +127,7 @@ class PrototypeIndex:
         self.scored = rows.size
         z = self.zaug.take(rows, axis=0)
         v = clipped_mismatch(z @ paug, self.wts)
-        return refine(v, int(v.argmin()), margin, z, pt_list, self.groups, self.order[rows])
+        return refine(v, int(v.argmin()), margin, z, pt, self.groups, self.order[rows])
 
     def mismatches(self, paug: FloatArray, out: FloatArray, s: FloatArray) -> None:
         """Every category's mismatch, in category order, into ``out`` (``s``: (K, G) work)."""
