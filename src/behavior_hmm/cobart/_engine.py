@@ -33,6 +33,7 @@ from behavior_hmm.cobart import _compiled as compiled
 from behavior_hmm.cobart._exact import (
     ROUNDING,
     Groups,
+    exact_mismatch,
     expansion_margin,
     margin_of,
     refine,
@@ -434,8 +435,11 @@ class Predictor:
             return self.index.search(pt, self.paug)
         np.dot(self.zaug, self.paug, out=self.s)
         v = clipped_mismatch(self.s, self.wts, out=self.v)
+        k = int(v.argmin())
         margin = margin_of(self.pn2.tolist(), *self._margin_args)
-        return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
+        if np.count_nonzero(v <= float(v[k]) + 2.0 * margin) == 1:  # refine's common case,
+            return k, exact_mismatch(self.z[k], pt, self.groups)  # inline: once a cycle
+        return refine(v, k, margin, self.z, pt, self.groups)
 
     def episode(
         self, wt: FloatArray, labels: NDArray[np.int64], scores: FloatArray, offset: int

@@ -62,6 +62,8 @@ class Groups:
     index: IntArray
     pointer: IntArray
     slices: tuple[slice, ...]
+    parts: tuple[tuple[slice, float, float], ...]
+    """Per group: its slice, scale and weight (what :func:`exact_mismatch` walks)."""
 
     @classmethod
     def of(cls, gs: FloatArray, wts: FloatArray) -> Groups:
@@ -92,6 +94,7 @@ class Groups:
             index=np.asarray(flat, dtype=np.int64),
             pointer=pointer,
             slices=tuple(slices),
+            parts=tuple(zip(slices, scales, (float(w) for w in wts), strict=True)),
         )
 
 
@@ -106,7 +109,7 @@ def exact_mismatch(z: FloatArray, p: FloatArray, groups: Groups) -> float:
     np.multiply(d, d, out=d)
     sq = d.tolist()
     r = 0.0
-    for sl, scale, w in zip(groups.slices, groups.scales, groups.weights, strict=True):
+    for sl, scale, w in groups.parts:
         s = 0.0
         for x in sq[sl]:  # the group's features in increasing order
             s += x
