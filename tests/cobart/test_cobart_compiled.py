@@ -164,15 +164,6 @@ def test_an_exact_tie_goes_to_the_lowest_category(kernel: str, both: None) -> No
     np.testing.assert_array_equal(model.predict(x, lengths), model.labels_)
 
 
-def test_importing_cobart_does_not_import_numba() -> None:
-    code = (
-        "import sys, behavior_hmm.cobart, behavior_hmm.models;"
-        "assert 'numba' not in sys.modules, 'numba imported'"
-    )
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
-
-
 def test_the_live_stream_never_loads_the_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
     # a live update runs inside a control cycle: importing numba there would stall it
     x, lengths = turn_dataset()

@@ -8,8 +8,6 @@ kernels' plain Python source in place of the compiled functions, so they run wit
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -219,16 +217,6 @@ def test_set_kernel_refuses_unknown_kernels_and_numba_without_numba(
     with pytest.raises(ImportError, match=r"behavior-hmm\[fast\]"):
         set_kernel("numba")
     assert impl._switch.setting == "auto"
-
-
-def test_importing_the_package_does_not_import_numba() -> None:
-    """numba costs ~0.3 s to import: only the first Viterbi decoding imports it."""
-    code = (
-        "import sys, behavior_hmm, behavior_hmm.hmm, behavior_hmm.hmm._viterbi;"
-        "assert 'numba' not in sys.modules, 'numba imported'"
-    )
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
 
 
 def test_a_plan_never_loads_the_compiled_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
