@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from behavior_hmm.models import CBLM, SBLM
+from behavior_hmm.models import CBLM, SBLM, load
 from behavior_hmm.teach import collect
 
 
@@ -33,3 +35,23 @@ def half_and_grown(turn_data: Any) -> tuple[SBLM, SBLM]:
     )
     grown = copy.deepcopy(model).partial_fit(turn_data.subset(np.arange(n // 2, n)))
     return model, grown
+
+
+@pytest.fixture
+def saved_and_grown(
+    turn_model: SBLM, half_and_grown: tuple[SBLM, SBLM], tmp_path: Path
+) -> Callable[[str], tuple[np.ndarray, np.ndarray]]:
+    """For a learned array's attribute name: assert that the shared turn SBLM's array
+    survives save and load unchanged, and return the half-grid model's array before and
+    after its growth (both learned)."""
+
+    def check(name: str) -> tuple[np.ndarray, np.ndarray]:
+        path = tmp_path / "turn.bhmm"
+        turn_model.save(path)
+        np.testing.assert_array_equal(getattr(load(path), name), getattr(turn_model, name))
+        model, grown = half_and_grown
+        before, after = getattr(model, name), getattr(grown, name)
+        assert before is not None and after is not None
+        return before, after
+
+    return check

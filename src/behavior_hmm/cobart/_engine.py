@@ -31,10 +31,9 @@ from numpy.typing import NDArray
 
 from behavior_hmm.cobart import _compiled as compiled
 from behavior_hmm.cobart._exact import (
-    ROUNDING,
     Groups,
-    exact_mismatch,
     expansion_margin,
+    margin_constants,
     margin_of,
     refine,
     score_of,
@@ -414,10 +413,8 @@ class Predictor:
         self.pt_col = self.pt[:, None]
         self.tmp = aligned_zeros(f)
         self.groups = eng.groups
-        self.width = eng.width
         zmax = self.zaug[:, f : f + g].max(axis=0) if k else np.zeros(g)
-        c = self.width * ROUNDING * 2.0
-        self._margin_args = ([c * float(zm) for zm in zmax], self.groups.weights, 0.5 * c)
+        self._margin_args = margin_constants(zmax.tolist(), self.groups, eng.width)
         from behavior_hmm.cobart._index import INDEX_MIN_CATEGORIES, PrototypeIndex
 
         self.index: PrototypeIndex | None = None
@@ -435,11 +432,8 @@ class Predictor:
             return self.index.search(pt, self.paug)
         np.dot(self.zaug, self.paug, out=self.s)
         v = clipped_mismatch(self.s, self.wts, out=self.v)
-        k = int(v.argmin())
         margin = margin_of(self.pn2.tolist(), *self._margin_args)
-        if np.count_nonzero(v <= float(v[k]) + 2.0 * margin) == 1:  # refine's common case,
-            return k, exact_mismatch(self.z[k], pt, self.groups)  # inline: once a cycle
-        return refine(v, k, margin, self.z, pt, self.groups)
+        return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 
     def episode(
         self, wt: FloatArray, labels: NDArray[np.int64], scores: FloatArray, offset: int

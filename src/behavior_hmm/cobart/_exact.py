@@ -42,28 +42,24 @@ class Groups:
 
     Attributes
     ----------
-    features
-        Per group, its feature indices in increasing order.
     scales
         Per group, the scale ``s_g`` of every one of its features (``gs[j, g]``).
     weights
         Per group, its weight ``w_g``.
     index, pointer
-        The same feature indices flattened, group ``g`` at ``index[pointer[g]:pointer[g+1]]``
-        (for the compiled kernels).
-    slices
-        Per group, the slice of a feature row holding its features (a group's features
-        are evenly spaced: one channel of a window).
+        The groups' feature indices in increasing order, flattened: group ``g`` at
+        ``index[pointer[g]:pointer[g+1]]`` (for the compiled kernels).
+    parts
+        Per group: the slice of a feature row holding its features (they are evenly
+        spaced: one channel of a window), its scale and its weight (what
+        :func:`exact_mismatch` walks).
     """
 
-    features: tuple[tuple[int, ...], ...]
     scales: tuple[float, ...]
     weights: tuple[float, ...]
     index: IntArray
     pointer: IntArray
-    slices: tuple[slice, ...]
     parts: tuple[tuple[slice, float, float], ...]
-    """Per group: its slice, scale and weight (what :func:`exact_mismatch` walks)."""
 
     @classmethod
     def of(cls, gs: FloatArray, wts: FloatArray) -> Groups:
@@ -87,14 +83,13 @@ class Groups:
             if tuple(range(f[0], f[-1] + 1, step)) != f:
                 raise ValueError("a similarity group's features must be evenly spaced")
             slices.append(sl)
+        weights = tuple(float(w) for w in wts)
         return cls(
-            features=tuple(feats),
             scales=tuple(scales),
-            weights=tuple(float(w) for w in wts),
+            weights=weights,
             index=np.asarray(flat, dtype=np.int64),
             pointer=pointer,
-            slices=tuple(slices),
-            parts=tuple(zip(slices, scales, (float(w) for w in wts), strict=True)),
+            parts=tuple(zip(slices, scales, weights, strict=True)),
         )
 
 
@@ -126,16 +121,23 @@ def expansion_margin(pn2: list[float], zmax: list[float], groups: Groups, terms:
     ``sqrt(e_g)``. ``pn2``: the query's ``-2 |p|^2_g`` (the last row of the expansion's
     query matrix); ``zmax``: an upper bound on every prototype's ``|z|^2_g``.
     """
+    return margin_of(pn2, *margin_constants(zmax, groups, terms))
+
+
+def margin_constants(
+    zmax: list[float], groups: Groups, terms: int
+) -> tuple[list[float], tuple[float, ...], float]:
+    """The parts of :func:`expansion_margin` that depend on the categories only, for
+    :func:`margin_of` (a categorizer whose categories do not change computes them once):
+    ``c zmax_g``, the weights and ``c / 2``, with ``c = 2 terms ROUNDING``."""
     c = terms * ROUNDING * 2.0
-    return margin_of(pn2, [c * zm for zm in zmax], groups.weights, 0.5 * c)
+    return [c * zm for zm in zmax], groups.weights, 0.5 * c
 
 
 def margin_of(
     pn2: list[float], czmax: list[float], weights: tuple[float, ...], half_c: float
 ) -> float:
-    """:func:`expansion_margin` with its constant parts given: ``czmax`` = ``c zmax_g`` and
-    ``half_c`` = ``c / 2``, ``c`` = ``2 terms ROUNDING`` (for a categorizer that scores
-    many inputs against the same categories)."""
+    """:func:`expansion_margin` from the query's ``pn2`` and :func:`margin_constants`."""
     m = MARGIN_FLOOR
     for w, cz, q in zip(weights, czmax, pn2, strict=True):
         m += w * math.sqrt(cz + half_c * abs(q))

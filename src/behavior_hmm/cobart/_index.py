@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from behavior_hmm.cobart._engine import aligned_zeros, clipped_mismatch
-from behavior_hmm.cobart._exact import Groups, expansion_margin, refine
+from behavior_hmm.cobart._exact import Groups, margin_constants, margin_of, refine
 
 FloatArray = NDArray[np.float64]
 
@@ -76,9 +76,9 @@ class PrototypeIndex:
         np.maximum.reduceat(zp, self.bounds[:-1], axis=0, out=self.hi)
         self.gs, self.wts = gs, wts
         self.groups = Groups.of(gs, wts)
-        # the largest |z|^2_g of any prototype, for the rounding margin
-        self._zmax = self.zaug[:, f : f + g].max(axis=0).tolist()
-        self._terms = zaug.shape[1]
+        # from the largest |z|^2_g of any prototype: the rounding margin's fixed parts
+        zmax = self.zaug[:, f : f + g].max(axis=0).tolist()
+        self._margin_args = margin_constants(zmax, self.groups, zaug.shape[1])
         self._d = np.empty((n_leaves, f))
         self._d2 = np.empty((n_leaves, f))
         self._lbg = np.empty((n_leaves, g))
@@ -89,8 +89,7 @@ class PrototypeIndex:
 
     def _margin(self, paug: FloatArray) -> float:
         """Bound on how far an expanded mismatch can lie from the exact one."""
-        pn2 = paug[self.F + self.NG].tolist()
-        return expansion_margin(pn2, self._zmax, self.groups, self._terms)
+        return margin_of(paug[self.F + self.NG].tolist(), *self._margin_args)
 
     def _first(self, leaf: int, paug: FloatArray) -> float:
         """Least mismatch among the prototypes of one leaf (an upper bound on the best)."""
