@@ -182,9 +182,63 @@ def test_the_live_stream_never_loads_the_kernels(monkeypatch: pytest.MonkeyPatch
 def test_warm_compiles_both_kernels_before_any_fit() -> None:
     code = (
         "from behavior_hmm.cobart import _compiled as c; k = c.kernels();"
-        "assert not k.learn.signatures and not k.predict.signatures, 'compiled already';"
-        "c.warm(); assert k.learn.signatures and k.predict.signatures, 'not compiled';"
+        "made = lambda: [bool(f.signatures) for f in k];"
+        "assert not any(made()), 'compiled already';"
+        "c.warm(); assert all(made()), 'not compiled';"
         "c.set_kernel('numpy'); c.warm()"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+#: The kernels' plain Python bodies, run uncompiled (slow, but every line is Python's).
+_PLAIN = compiled.Kernels(learn=compiled.learn, predict=compiled.predict, build=compiled.build)
+
+
+def _boxes_hold_their_categories(tr: compiled.Tree, z: np.ndarray) -> None:
+    leaves = np.flatnonzero(tr.start >= 0)
+    for node in range(tr.skip.shape[0]):
+        under = leaves[(leaves >= node) & (leaves < tr.skip[node])]
+        members = np.concatenate([tr.perm[tr.start[i] : tr.end[i]] for i in under])
+        assert np.all(z[members] >= tr.lo[node]) and np.all(z[members] <= tr.hi[node])
+        if tr.parent[node] >= 0:  # a subtree lies inside its parent's
+            assert tr.parent[node] < node < tr.skip[node] <= tr.skip[tr.parent[node]]
+
+
+@pytest.mark.parametrize("n", [0, 1, 8, 9, 57])
+def test_the_tree_holds_every_category_once_in_boxed_leaves(n: int) -> None:
+    rng = np.random.default_rng(n)
+    z = rng.normal(size=(n, 3))
+    tr = compiled.tree(_PLAIN, z, n, np.array([1.0, 2.0, 0.5]), n + 5)
+    leaves = np.flatnonzero(tr.start >= 0)
+    listed = np.concatenate([tr.perm[tr.start[i] : tr.end[i]] for i in leaves] + [[]])
+    assert sorted(listed.tolist()) == list(range(n))
+    assert all(tr.end[i] - tr.start[i] <= compiled.LEAF_SIZE for i in leaves)
+    assert tr.leaf_of[n:].tolist() == [-1] * 5  # beyond the tree: no leaf
+    for i in leaves:
+        assert np.all(tr.leaf_of[tr.perm[tr.start[i] : tr.end[i]]] == i)
+    _boxes_hold_their_categories(tr, z)
+
+
+def test_a_moved_prototype_widens_its_leaf_and_every_ancestor() -> None:
+    # learning (uncompiled body) moves prototypes half way to each input, far outside
+    # the boxes they were built in; every node's box must still hold its categories
+    rng = np.random.default_rng(3)
+    f, n, cap = 3, 40, 64
+    z = np.zeros((cap, f))
+    z[:n] = rng.uniform(-1.0, 1.0, size=(n, f))
+    counts = np.ones(cap, dtype=np.int64)
+    tr = compiled.tree(_PLAIN, z, n, np.ones(f), cap)
+    gs = np.zeros((f, f))
+    gs[np.arange(f), np.arange(f)] = 0.05
+    groups = Groups.of(gs, np.full(f, 1.0 / f))
+    wt = rng.uniform(-3.0, 3.0, size=(60, f))
+    labels = np.empty(60, dtype=np.int64)
+    t, n_cat, _ = compiled.learn(
+        wt, wt * 1.0, 0, 60, -1, n, 64, z, counts, *tr, np.zeros(f), np.zeros(f), 0.0,
+        0.0, 0.5, 0.0, f, f, groups.index, groups.pointer, np.asarray(groups.scales),
+        np.asarray(groups.weights), labels,
+    )  # fmt: skip
+    assert (t, n_cat) == (60, n)  # rho 0: every input moves the category it resonates with
+    assert len(set(labels.tolist())) > 10
+    _boxes_hold_their_categories(tr, z)

@@ -9,16 +9,18 @@ one call of these kernels. Both choose every winner by the exact mismatch of mod
 ``_exact``, formed with the same floating-point operations in the same order, so the
 categories, prototypes, counts, labels and scores are identical to the bit either way.
 
-The kernels do not score every category. The categories are split into leaves
-(``_index._partition``) with the bounding box of each leaf; a leaf's box gives a lower
-bound on the exact mismatch of every category in it, formed with the same operations
-on the box distances (each no larger than the category's own difference, and every
-operation monotone), so a leaf whose bound exceeds the best mismatch so far cannot hold
-the winner and is skipped. A category's mismatch is summed group by group and abandoned
-as soon as it exceeds the best so far. The previous step's winner is scored first: the
-input moves little from one step to the next. While learning, a prototype that moves
-widens its leaf's box, and new categories are scored one by one until the leaves are
-rebuilt (every ``REBUILD_ROWS`` steps, or when ``TAIL_MAX`` new categories wait).
+The kernels do not score every category. The categories are held in a k-d tree
+(module ``_index``'s split: medians of the widest weighted feature) whose nodes, each
+with the bounding box of its categories, are stored in depth-first order with a pointer
+past each node's subtree. A box gives a lower bound on the exact mismatch of every
+category in it, formed with the same operations on the box distances (each no larger
+than the category's own difference, and every operation monotone), so a node whose bound
+exceeds the best mismatch so far cannot hold the winner and its subtree is skipped. A
+category's mismatch is summed group by group and abandoned as soon as it exceeds the
+best so far. The previous step's winner is scored first: the input moves little from one
+step to the next. While learning, a prototype that moves widens its leaf's box and its
+ancestors', and new categories are scored one by one until the tree is rebuilt (every
+``REBUILD_ROWS`` steps, or when ``TAIL_MAX`` new categories wait).
 
 numba is imported on the first call of :func:`kernels`, never when ``behavior_hmm`` is
 imported. The kernels are compiled with ``cache=True`` (the machine code is kept in
@@ -45,13 +47,13 @@ if TYPE_CHECKING:
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: Most categories per leaf of the kernels' partition (on the turn & approach CBLM's
-#: 2,310 observation categories 64-128 learn and categorize fastest, 16 twice and one
-#: leaf of all ten times as slow).
-LEAF_SIZE: Final[int] = 128
-#: New categories scored one by one before the leaves are rebuilt.
-TAIL_MAX: Final[int] = 64
-#: Learning steps between rebuilds of the leaves (moved prototypes widen their boxes).
+#: Most categories per leaf of the kernels' tree (on the turn & approach CBLM's 2,310
+#: observation categories leaves of 4-8 categorize fastest, 1.4 us a window; 32 take
+#: 2.3 us, and flat leaves of 128 without a tree above them 6.6 us).
+LEAF_SIZE: Final[int] = 8
+#: New categories scored one by one before the tree is rebuilt.
+TAIL_MAX: Final[int] = 32
+#: Learning steps between rebuilds of the tree (moved prototypes widen their boxes).
 REBUILD_ROWS: Final[int] = 4_096
 
 
@@ -60,6 +62,7 @@ class Kernels(NamedTuple):
 
     learn: Callable[..., tuple[int, int, int]]
     predict: Callable[..., None]
+    build: Callable[..., int]
 
 
 @functools.cache
@@ -78,7 +81,9 @@ def _compiled(numba: Any, cache: bool) -> Kernels:
     g["_consider"] = jit(_bind(_consider, g))
     best = jit(_bind(_best, g))
     g["_best"] = best
-    return Kernels(learn=jit(_bind(learn, g)), predict=jit(_bind(predict, g)))
+    return Kernels(
+        learn=jit(_bind(learn, g)), predict=jit(_bind(predict, g)), build=jit(_bind(build, g))
+    )
 
 
 def _bind(func: Callable[..., Any], names: dict[str, Any]) -> Callable[..., Any]:
@@ -123,37 +128,41 @@ def warm() -> None:
     CobART(window=3).fit(x).categorize(x)
 
 
-class Leaves(NamedTuple):
-    """A partition of categories ``0..n_indexed-1`` into leaves with bounding boxes."""
+class Tree(NamedTuple):
+    """A k-d tree over categories ``0..n_indexed-1``, its nodes in depth-first order.
+
+    Node ``i`` holds the box ``lo[i]``..``hi[i]`` of its categories; its subtree ends
+    before node ``skip[i]``; a leaf lists ``perm[start[i]:end[i]]``, an inner node has
+    ``start[i] == -1``. ``parent`` (``-1`` at the root) and ``leaf_of`` (per category,
+    sized to the capacity, ``-1`` outside the tree) let a moved prototype widen its
+    leaf's box and its ancestors'.
+    """
 
     perm: IntArray
-    start: IntArray
-    end: IntArray
     lo: FloatArray
     hi: FloatArray
+    skip: IntArray
+    start: IntArray
+    end: IntArray
+    parent: IntArray
     leaf_of: IntArray
     n_indexed: int
 
 
-def leaves(z: FloatArray, n: int, weight: FloatArray, capacity: int) -> Leaves:
-    """Leaves of the first ``n`` feature rows of ``z`` (``leaf_of`` sized ``capacity``);
+def tree(kern: Kernels, z: FloatArray, n: int, weight: FloatArray, capacity: int) -> Tree:
+    """The tree of the first ``n`` feature rows of ``z`` (``leaf_of`` sized ``capacity``);
     ``weight``: ``_index.partition_weight`` of the layout."""
-    from behavior_hmm.cobart._index import _partition  # _index imports _engine, which imports us
-
     f = z.shape[1]
-    parts = _partition(z[:n] * weight, LEAF_SIZE) if n else []
-    sizes = np.array([p.size for p in parts], dtype=np.int64)
-    bounds = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-    perm = np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, dtype=np.int64)
-    lo = np.empty((len(parts), f))
-    hi = np.empty((len(parts), f))
-    if parts:
-        zp = z[perm]
-        np.minimum.reduceat(zp, bounds[:-1], axis=0, out=lo)
-        np.maximum.reduceat(zp, bounds[:-1], axis=0, out=hi)
+    nodes = 4 * (n // LEAF_SIZE + 1)  # a leaf holds at least half of LEAF_SIZE (or all n)
+    perm = np.arange(n, dtype=np.int64)
+    lo, hi = np.empty((nodes, f)), np.empty((nodes, f))
+    skip, start, end, parent = (np.empty(nodes, dtype=np.int64) for _ in range(4))
     leaf_of = np.full(capacity, -1, dtype=np.int64)
-    leaf_of[perm] = np.repeat(np.arange(len(parts), dtype=np.int64), sizes)
-    return Leaves(perm, bounds[:-1].copy(), bounds[1:].copy(), lo, hi, leaf_of, n)
+    m = kern.build(
+        np.ascontiguousarray(z[:n] * weight), z, n, LEAF_SIZE, perm, lo, hi, skip, start, end,
+        parent, leaf_of,
+    )  # fmt: skip
+    return Tree(perm, lo[:m], hi[:m], skip[:m], start[:m], end[:m], parent[:m], leaf_of, n)
 
 
 # -- plain Python, compiled by ``kernels``: far too slow to call as it is --------------
@@ -191,22 +200,22 @@ def _lower_bound(
     p: FloatArray,
     lo: FloatArray,
     hi: FloatArray,
-    leaf: int,
+    node: int,
     gidx: IntArray,
     gptr: IntArray,
     gscale: FloatArray,
     gw: FloatArray,
 ) -> float:
-    """A bound no category of ``leaf`` can fall below: the exact mismatch's operations on
-    the distances from ``p`` to the leaf's box."""
+    """A bound no category under ``node`` can fall below: the exact mismatch's operations
+    on the distances from ``p`` to the node's box."""
     r = 0.0
     for g in range(gptr.shape[0] - 1):
         s = 0.0
         for q in range(gptr[g], gptr[g + 1]):
             j = gidx[q]
             x = p[j]
-            e = lo[leaf, j] - x
-            u = x - hi[leaf, j]
+            e = lo[node, j] - x
+            u = x - hi[node, j]
             if u > e:
                 e = u
             if e > 0.0:
@@ -223,10 +232,11 @@ def _best(
     z: FloatArray,
     n_cat: int,
     perm: IntArray,
-    start: IntArray,
-    end: IntArray,
     lo: FloatArray,
     hi: FloatArray,
+    skip: IntArray,
+    start: IntArray,
+    end: IntArray,
     n_indexed: int,
     hint: int,
     gidx: IntArray,
@@ -240,12 +250,15 @@ def _best(
     if hint >= 0:
         best_r = _mismatch(z, hint, p, gidx, gptr, gscale, gw, np.inf)
         best_k = hint
-    for leaf in range(start.shape[0]):
-        if _lower_bound(p, lo, hi, leaf, gidx, gptr, gscale, gw) > best_r:
+    node = 0
+    while node < skip.shape[0]:
+        if _lower_bound(p, lo, hi, node, gidx, gptr, gscale, gw) > best_r:
+            node = skip[node]  # past the subtree
             continue
-        for q in range(start[leaf], end[leaf]):
+        for q in range(start[node], end[node]):  # a leaf's categories (none inside)
             best_k, best_r = _consider(z, perm[q], p, hint, best_k, best_r, gidx, gptr, gscale, gw)
-    for k in range(n_indexed, n_cat):  # the categories made since the leaves were built
+        node += 1
+    for k in range(n_indexed, n_cat):  # the categories made since the tree was built
         best_k, best_r = _consider(z, k, p, hint, best_k, best_r, gidx, gptr, gscale, gw)
     return best_k, best_r
 
@@ -282,10 +295,12 @@ def learn(
     z: FloatArray,
     counts: IntArray,
     perm: IntArray,
-    start: IntArray,
-    end: IntArray,
     lo: FloatArray,
     hi: FloatArray,
+    skip: IntArray,
+    start: IntArray,
+    end: IntArray,
+    parent: IntArray,
     leaf_of: IntArray,
     n_indexed: int,
     zl: FloatArray,
@@ -323,8 +338,9 @@ def learn(
         k = 0
         if n_cat > 0:
             k, r = _best(
-                p, z, n_cat, perm, start, end, lo, hi, n_indexed, prev, gidx, gptr, gscale, gw
-            )
+                p, z, n_cat, perm, lo, hi, skip, start, end, n_indexed, prev, gidx, gptr,
+                gscale, gw,
+            )  # fmt: skip
             score = 1.0 - r
             if score < 0.0:
                 score = 0.0
@@ -337,14 +353,20 @@ def learn(
                 z[k, j] = zj + (p[j] - zj) * lr
             for j in range(nr - c):
                 z[k, nr + j] = z[k, c + j] - z[k, j]
-            if k < n_indexed:
-                leaf = leaf_of[k]
+            node = leaf_of[k]  # -1 for a category made since the tree was built
+            while node >= 0:  # widen the boxes up the tree while one grows
+                grown = False
                 for j in range(f):
                     x = z[k, j]
-                    if x < lo[leaf, j]:
-                        lo[leaf, j] = x
-                    if x > hi[leaf, j]:
-                        hi[leaf, j] = x
+                    if x < lo[node, j]:
+                        lo[node, j] = x
+                        grown = True
+                    if x > hi[node, j]:
+                        hi[node, j] = x
+                        grown = True
+                if not grown:
+                    break  # the ancestors' boxes hold this one
+                node = parent[node]
         else:
             k = n_cat
             for j in range(nr):
@@ -367,10 +389,11 @@ def predict(
     z: FloatArray,
     omaz: FloatArray,
     perm: IntArray,
-    start: IntArray,
-    end: IntArray,
     lo: FloatArray,
     hi: FloatArray,
+    skip: IntArray,
+    start: IntArray,
+    end: IntArray,
     p: FloatArray,
     gidx: IntArray,
     gptr: IntArray,
@@ -391,10 +414,88 @@ def predict(
         else:
             for j in range(f):
                 p[j] = awt[t, j] + omaz[k, j]
-        k, r = _best(p, z, n_cat, perm, start, end, lo, hi, n_cat, k, gidx, gptr, gscale, gw)
+        k, r = _best(p, z, n_cat, perm, lo, hi, skip, start, end, n_cat, k, gidx, gptr, gscale, gw)
         labels[offset + t] = k
         s = 1.0 - r
         scores[offset + t] = s if s > 0.0 else 0.0
+
+
+def build(
+    zw: FloatArray,
+    z: FloatArray,
+    n: int,
+    leaf_size: int,
+    perm: IntArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    skip: IntArray,
+    start: IntArray,
+    end: IntArray,
+    parent: IntArray,
+    leaf_of: IntArray,
+) -> int:
+    """Build :class:`Tree`'s arrays over rows ``0..n-1`` (``perm`` holding ``0..n-1``):
+    each node of more than ``leaf_size`` categories split at the median of the feature of
+    widest spread in ``zw`` (the weighted rows), boxes from ``z``; returns the node count.
+    Which categories share a leaf changes only how fast a winner is found, never which."""
+    f = z.shape[1]
+    if n == 0:
+        return 0
+    stack = np.empty((128, 3), dtype=np.int64)  # depth ~log2(n): 128 is never reached
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, n, -1
+    top = 1
+    m = 0
+    while top > 0:
+        top -= 1
+        a, b, up = stack[top, 0], stack[top, 1], stack[top, 2]
+        node = m
+        m += 1
+        parent[node] = up
+        for j in range(f):
+            lo[node, j] = np.inf
+            hi[node, j] = -np.inf
+        for q in range(a, b):
+            k = perm[q]
+            for j in range(f):
+                x = z[k, j]
+                if x < lo[node, j]:
+                    lo[node, j] = x
+                if x > hi[node, j]:
+                    hi[node, j] = x
+        if b - a <= leaf_size:
+            start[node], end[node] = a, b
+            for q in range(a, b):
+                leaf_of[perm[q]] = node
+            continue
+        start[node], end[node] = -1, -1
+        dim, widest = 0, -1.0
+        for j in range(f):
+            low, high = np.inf, -np.inf
+            for q in range(a, b):
+                x = zw[perm[q], j]
+                if x < low:
+                    low = x
+                if x > high:
+                    high = x
+            if high - low > widest:
+                dim, widest = j, high - low
+        values = np.empty(b - a)
+        for q in range(a, b):
+            values[q - a] = zw[perm[q], dim]
+        order = np.argsort(values)
+        members = perm[a:b].copy()
+        for q in range(b - a):
+            perm[a + q] = members[order[q]]
+        half = a + (b - a) // 2
+        stack[top, 0], stack[top, 1], stack[top, 2] = half, b, node  # right after left
+        stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = a, half, node
+        top += 2
+    size = np.ones(m, dtype=np.int64)
+    for node in range(m - 1, 0, -1):  # children come after their parent
+        size[parent[node]] += size[node]
+    for node in range(m):
+        skip[node] = node + size[node]
+    return m
 
 
 # -- drivers --------------------------------------------------------------------------
@@ -434,8 +535,8 @@ def learn_episodes(
     counts[:n_cat] = eng.counts
     labels = np.empty(sum(w.shape[0] for w in episodes), dtype=np.int64)
     zl, p = np.zeros(f), np.zeros(f)
-    lv = leaves(z, n_cat, weight, cap)
-    since = 0  # learning steps since the leaves were built
+    tr = tree(kern, z, n_cat, weight, cap)
+    since = 0  # learning steps since the tree was built
     offset = 0
     for wt in episodes:
         awt = wt * a
@@ -448,17 +549,16 @@ def learn_episodes(
                 z = np.concatenate([z, np.zeros_like(z)])
                 counts = np.concatenate([counts, np.zeros_like(counts)])
             if (
-                lv.leaf_of.shape[0] != cap
-                or n_cat - lv.n_indexed >= TAIL_MAX
+                tr.leaf_of.shape[0] != cap
+                or n_cat - tr.n_indexed >= TAIL_MAX
                 or since >= REBUILD_ROWS
             ):
-                lv = leaves(z, n_cat, weight, cap)
+                tr = tree(kern, z, n_cat, weight, cap)
                 since = 0
             t_stop = min(steps, t + REBUILD_ROWS - since)
             t_next, n_cat, prev = kern.learn(
-                wt, awt, t, t_stop, prev, n_cat, TAIL_MAX, z, counts, lv.perm, lv.start,
-                lv.end, lv.lo, lv.hi, lv.leaf_of, lv.n_indexed, zl, p, 1.0 - a, rho, d,
-                alpha, nr, c, *group_arrays, out,
+                wt, awt, t, t_stop, prev, n_cat, TAIL_MAX, z, counts, *tr, zl, p, 1.0 - a,
+                rho, d, alpha, nr, c, *group_arrays, out,
             )  # fmt: skip
             since += t_next - t
             t = t_next
@@ -470,10 +570,12 @@ def learn_episodes(
 class CompiledPredictor:
     """What :func:`predict` needs of a fixed set of categories, built once."""
 
-    def __init__(self, z: FloatArray, omaz: FloatArray, groups: Groups, weight: FloatArray) -> None:
+    def __init__(
+        self, kern: Kernels, z: FloatArray, omaz: FloatArray, groups: Groups, weight: FloatArray
+    ) -> None:
         self.z = np.ascontiguousarray(z)
         self.omaz = np.ascontiguousarray(omaz)
-        self.leaves = leaves(self.z, self.z.shape[0], weight, self.z.shape[0])
+        self.tree = tree(kern, self.z, self.z.shape[0], weight, self.z.shape[0])
         self.groups = _group_arrays(groups)
         self.p = np.zeros(self.z.shape[1])
 
@@ -487,8 +589,8 @@ class CompiledPredictor:
         offset: int,
     ) -> None:
         """Categorize one episode into ``labels``/``scores`` at ``offset``."""
-        lv = self.leaves
+        tr = self.tree
         kern.predict(
-            wt, wt * a, self.z, self.omaz, lv.perm, lv.start, lv.end, lv.lo, lv.hi, self.p,
-            *self.groups, labels, scores, offset,
+            wt, wt * a, self.z, self.omaz, tr.perm, tr.lo, tr.hi, tr.skip, tr.start, tr.end,
+            self.p, *self.groups, labels, scores, offset,
         )  # fmt: skip

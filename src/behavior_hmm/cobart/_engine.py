@@ -445,7 +445,9 @@ class Predictor:
                 from behavior_hmm.cobart._index import partition_weight
 
                 weight = partition_weight(self.gs, self.wts)
-                self._compiled = compiled.CompiledPredictor(self.z, self.omaz, self.groups, weight)
+                self._compiled = compiled.CompiledPredictor(
+                    kern, self.z, self.omaz, self.groups, weight
+                )
             self._compiled.episode(kern, wt, self.a, labels, scores, offset)
             return
         awt = wt * self.a
