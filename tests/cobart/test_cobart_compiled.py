@@ -12,7 +12,7 @@ import pytest
 from cobart_testing import episodes, params, turn_dataset
 from hypothesis import HealthCheck, assume, given, settings
 
-from behavior_hmm.cobart import CobART
+from behavior_hmm.cobart import CobART, _live
 from behavior_hmm.cobart import _compiled as compiled
 from behavior_hmm.cobart._exact import Groups, exact_mismatch, refine
 
@@ -72,19 +72,31 @@ def test_kernels_rebuild_grow_and_match_on_many_categories(monkeypatch: pytest.M
 
 
 @pytest.mark.usefixtures("both")
-def test_live_stream_equals_the_compiled_categorize() -> None:
+@pytest.mark.parametrize("search", ["numpy", "compiled"])
+def test_live_stream_equals_the_compiled_categorize(
+    search: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     x, lengths = turn_dataset(two_channels=True)
     compiled.set_kernel("numba")
     model = CobART(rho=0.99, window=4).fit(x, lengths)
     cat = model.categorize(x, lengths)
-    stream = model.stream()  # reading by reading, on the numpy path
+    # reading by reading: screening every category (numpy) or searching the tree
+    monkeypatch.setattr(_live, "LIVE_COMPILED_MIN", 1 if search == "compiled" else 10**9)
+    stream = model.stream()
+    assert (stream._search is not None) == (search == "compiled")
+    compiled.set_kernel("numpy")
+    screened = model.stream()  # every category's screened mismatch, fresh each update
     start = 0
     for n in lengths:
         stream.reset()
+        screened.reset()
         for t in range(start, start + n):
             k, novel, score = stream.update(x[t])
             assert (k, score) == (cat.labels[t], cat.scores[t])
             assert novel == cat.novel[t]
+            screened.update(x[t])
+            if t % 7 == 0:  # the property scores every category when the update did not
+                assert stream.mismatch.tobytes() == screened.mismatch.tobytes()
         start += n
 
 
@@ -164,10 +176,11 @@ def test_an_exact_tie_goes_to_the_lowest_category(kernel: str, both: None) -> No
     np.testing.assert_array_equal(model.predict(x, lengths), model.labels_)
 
 
-def test_the_live_stream_never_loads_the_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_small_live_stream_never_loads_the_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
     # a live update runs inside a control cycle: importing numba there would stall it
     x, lengths = turn_dataset()
     model = CobART(rho=0.95, window=3).fit(x, lengths)
+    assert model.n_categories_ < _live.LIVE_COMPILED_MIN
     loaded: list[bool] = []
     monkeypatch.setattr(compiled, "kernels", lambda: loaded.append(True))
     stream = model.stream()
@@ -179,20 +192,49 @@ def test_the_live_stream_never_loads_the_kernels(monkeypatch: pytest.MonkeyPatch
 
 
 @pytest.mark.usefixtures("both")
-def test_warm_compiles_both_kernels_before_any_fit() -> None:
-    code = (
+def test_a_searching_live_stream_loads_and_compiles_before_its_first_update(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    x, lengths = turn_dataset()
+    model = CobART(rho=0.95, window=3).fit(x, lengths)
+    monkeypatch.setattr(_live, "LIVE_COMPILED_MIN", 1)
+    asked: list[bool] = []
+    real = compiled.kernels
+    monkeypatch.setattr(compiled, "kernels", lambda: asked.append(True) or real())
+    calls: list[tuple[Any, ...]] = []
+    stream = model.stream()  # loads numba and compiles the search: outside any cycle
+    assert asked and stream._search is not None
+    search = stream._search
+    best = search._best
+    monkeypatch.setattr(search, "_best", lambda *a: calls.append(a) or best(*a))
+    asked.clear()
+    for reading in x[:50]:
+        stream.update(reading)
+    assert asked == [] and len(calls) == 50  # every update searched, none loaded anything
+
+
+def _in_a_fresh_process(code: str) -> None:
+    """Run ``code`` in a new interpreter (nothing compiled or imported yet); its asserts
+    must hold."""
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.usefixtures("both")
+def test_warm_compiles_every_kernel_before_any_fit() -> None:
+    _in_a_fresh_process(
         "from behavior_hmm.cobart import _compiled as c; k = c.kernels();"
         "made = lambda: [bool(f.signatures) for f in k];"
         "assert not any(made()), 'compiled already';"
         "c.warm(); assert all(made()), 'not compiled';"
         "c.set_kernel('numpy'); c.warm()"
     )
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr
 
 
 #: The kernels' plain Python bodies, run uncompiled (slow, but every line is Python's).
-_PLAIN = compiled.Kernels(learn=compiled.learn, predict=compiled.predict, build=compiled.build)
+_PLAIN = compiled.Kernels(
+    learn=compiled.learn, predict=compiled.predict, build=compiled.build, best=compiled._best
+)
 
 
 def _boxes_hold_their_categories(tr: compiled.Tree, z: np.ndarray) -> None:
@@ -242,3 +284,19 @@ def test_a_moved_prototype_widens_its_leaf_and_every_ancestor() -> None:
     assert (t, n_cat) == (60, n)  # rho 0: every input moves the category it resonates with
     assert len(set(labels.tolist())) > 10
     _boxes_hold_their_categories(tr, z)
+
+
+@pytest.mark.usefixtures("both")
+def test_a_live_stream_loads_numba_only_when_asked_or_already_paid_for() -> None:
+    # running a saved model must not cost numba's ~100 MB unasked (bench memory)
+    _in_a_fresh_process(
+        "import sys, numpy as np\n"
+        "from behavior_hmm.cobart import CobART, _live, _compiled as c\n"
+        "_live.LIVE_COMPILED_MIN = 1\n"
+        "x = np.linspace(-1.0, 1.0, 60).reshape(30, 2)\n"
+        "c.set_kernel('numpy'); m = CobART(window=3).fit(x); c.set_kernel('auto')\n"
+        "assert m.stream()._search is None and 'numba' not in sys.modules, 'loaded unasked'\n"
+        "c.set_kernel('numba'); assert m.stream()._search is not None, 'asked, not searched'\n"
+        "c.set_kernel('numpy'); assert m.stream()._search is None, 'numpy chosen'\n"
+        "c.set_kernel('auto'); assert m.stream()._search is not None, 'loaded, not used'\n"
+    )

@@ -20,6 +20,11 @@ machine may be shared: a step that lost the CPU to another process counts in ful
 wall-clock maximum, so the thread's CPU time is reported beside it
 (``*_cpu_us_p99``/``*_cpu_us_max``): where the two maxima differ, the difference was
 spent waiting, not computing.
+
+``live_kernel`` says how live streams of ``LIVE_COMPILED_MIN`` categories or more (the
+CBLM's observations, the scaling curve's larger models) searched: ``"numba"`` (the
+compiled kernels' tree, used here because this process trained its models with them
+loaded) or ``"numpy"`` (every category screened; without the ``fast`` extra).
 """
 
 from __future__ import annotations
@@ -212,6 +217,9 @@ def run(quick: bool = False) -> dict[str, Any]:
     if not quick:
         results.update(_complex_step(model, env))
     results["scaling"] = _scaling(quick, env)
+    from behavior_hmm.cobart._live import live_kernels
+
+    results["live_kernel"] = "numpy" if live_kernels() is None else "numba"
     return results
 
 

@@ -63,6 +63,7 @@ class Kernels(NamedTuple):
     learn: Callable[..., tuple[int, int, int]]
     predict: Callable[..., None]
     build: Callable[..., int]
+    best: Callable[..., tuple[int, float]]
 
 
 @functools.cache
@@ -82,7 +83,10 @@ def _compiled(numba: Any, cache: bool) -> Kernels:
     best = jit(_bind(_best, g))
     g["_best"] = best
     return Kernels(
-        learn=jit(_bind(learn, g)), predict=jit(_bind(predict, g)), build=jit(_bind(build, g))
+        learn=jit(_bind(learn, g)),
+        predict=jit(_bind(predict, g)),
+        build=jit(_bind(build, g)),
+        best=best,
     )
 
 
@@ -120,12 +124,16 @@ def warm() -> None:
     """Load the kernels now, or compile them the first time on a machine (~4 s; later
     processes load numba's cache, ~0.5 s), so that the first fit a caller times does not
     pay for it. Nothing to do without numba or with the numpy paths chosen."""
-    if active() is None:
+    kern = active()
+    if kern is None:
         return
     from behavior_hmm.cobart._cobart import CobART  # _cobart imports this module
 
     x = np.linspace(-1.0, 1.0, 24).reshape(12, 2)
-    CobART(window=3).fit(x).categorize(x)
+    model = CobART(window=3).fit(x)
+    model.categorize(x)
+    pred = model._predictor()
+    pred.compiled_search(kern).best(pred.pt, -1)  # a live stream's search
 
 
 class Tree(NamedTuple):
@@ -575,9 +583,21 @@ class CompiledPredictor:
     ) -> None:
         self.z = np.ascontiguousarray(z)
         self.omaz = np.ascontiguousarray(omaz)
-        self.tree = tree(kern, self.z, self.z.shape[0], weight, self.z.shape[0])
+        self.n = self.z.shape[0]
+        self.tree = tree(kern, self.z, self.n, weight, self.n)
         self.groups = _group_arrays(groups)
         self.p = np.zeros(self.z.shape[1])
+        self._best = kern.best
+
+    def best(self, p: FloatArray, hint: int) -> tuple[int, float]:
+        """The category of least exact mismatch to the processed input ``p`` and that
+        mismatch (``hint``: a category to score first, e.g. the last winner; -1: none).
+        One compiled call of ~1 µs of dispatch: a live stream's search."""
+        tr = self.tree
+        return self._best(
+            p, self.z, self.n, tr.perm, tr.lo, tr.hi, tr.skip, tr.start, tr.end, self.n,
+            hint, *self.groups,
+        )  # fmt: skip
 
     def episode(
         self,

@@ -435,20 +435,24 @@ class Predictor:
         margin = margin_of(self.pn2.tolist(), *self._margin_args)
         return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 
+    def compiled_search(self, kern: compiled.Kernels) -> compiled.CompiledPredictor:
+        """The compiled kernels' view of these categories (their tree), built once."""
+        if self._compiled is None:
+            from behavior_hmm.cobart._index import partition_weight
+
+            weight = partition_weight(self.gs, self.wts)
+            self._compiled = compiled.CompiledPredictor(
+                kern, self.z, self.omaz, self.groups, weight
+            )
+        return self._compiled
+
     def episode(
         self, wt: FloatArray, labels: NDArray[np.int64], scores: FloatArray, offset: int
     ) -> None:
         """Categorize one episode (features ``(T, F)``) into ``labels``/``scores`` at ``offset``."""
         kern = compiled.active()
         if kern is not None and self.index is None:
-            if self._compiled is None:
-                from behavior_hmm.cobart._index import partition_weight
-
-                weight = partition_weight(self.gs, self.wts)
-                self._compiled = compiled.CompiledPredictor(
-                    kern, self.z, self.omaz, self.groups, weight
-                )
-            self._compiled.episode(kern, wt, self.a, labels, scores, offset)
+            self.compiled_search(kern).episode(kern, wt, self.a, labels, scores, offset)
             return
         awt = wt * self.a
         pt, pt_col, omaz = self.pt, self.pt_col, self.omaz_rows
