@@ -88,7 +88,24 @@ def test_live_match_times_the_categorization_at_each_size(
     assert [r["observation_categories"] for r in rows] == [50, 400]
     assert all(0 < r["update_us_median"] <= r["update_us_p99"] for r in rows)
     assert [r["indexed"] for r in rows] == [False, True]
+    assert [r["search"] for r in rows] == ["screen", "index"]
     assert rows[0]["scored_median"] == 50 and 0 < rows[1]["scored_median"] < 400
+
+
+def test_live_match_says_where_the_compiled_tree_was_searched(
+    monkeypatch: pytest.MonkeyPatch, turn_model: Any
+) -> None:
+    pytest.importorskip("numba", reason="numba is not installed (the 'fast' extra)")
+    from behavior_hmm.cobart import _compiled, _live
+
+    monkeypatch.setattr(_live, "LIVE_COMPILED_MIN", 40)
+    previous = _compiled.set_kernel("numba")
+    try:
+        rows = bench.live_match(turn_model, sizes=(30, 50))
+    finally:
+        _compiled.set_kernel(previous)
+    assert [r["search"] for r in rows] == ["screen", "tree"]
+    assert rows[0]["scored_median"] == 30 and rows[1]["scored_median"] is None
 
 
 def test_plot_memory_draws_every_size(tmp_path: Path) -> None:

@@ -365,7 +365,10 @@ def live_match(model: Any, sizes: tuple[int, ...] = LIVE_SIZES) -> list[dict[str
     ``K`` prototypes are drawn from ``model``'s observation prototypes
     (:func:`drawn_prototypes`), and a turn from 0.9 to 0.1 and back (normalized angle,
     1,200 readings) is categorized. ``indexed``: whether the prototype index was searched;
-    ``scored_median``: prototypes scored per reading.
+    ``search``: ``"index"``, ``"tree"`` (the compiled kernels' tree, where this process
+    has numba loaded; ``cobart._live.live_kernels``) or ``"screen"`` (every prototype);
+    ``scored_median``: prototypes scored per reading (``None`` for the tree, which does
+    not count them).
     """
     import time
 
@@ -375,6 +378,7 @@ def live_match(model: Any, sizes: tuple[int, ...] = LIVE_SIZES) -> list[dict[str
         live = drawn_prototypes(model.observations_, k).stream()
         build_s = time.perf_counter() - t0
         index = live._pred.index
+        search = "index" if index is not None else "screen" if live._search is None else "tree"
         times, scored = [], []
         for reading in _turn_readings():
             t0 = time.perf_counter_ns()
@@ -385,8 +389,9 @@ def live_match(model: Any, sizes: tuple[int, ...] = LIVE_SIZES) -> list[dict[str
             {
                 "observation_categories": k,
                 "indexed": index is not None,
+                "search": search,
                 "build_s": build_s,
-                "scored_median": float(np.median(scored)),
+                "scored_median": None if search == "tree" else float(np.median(scored)),
                 "update_us_median": float(np.median(times)),
                 "update_us_p99": float(np.percentile(times, 99)),
                 "update_us_max": float(np.max(times)),
