@@ -184,3 +184,26 @@ def test_a_noisy_run_that_moved_at_once_is_confirmed_before_it_ends(turn_model: 
     for _ in range(10):
         ended += _ends_after_moving(turn_model.policy(GOAL), rng.normal(7.0, SIGMA, 40)) is not None
     assert ended <= 2
+
+
+
+@pytest.mark.parametrize(("lag", "angle"), [(0.2, 32.0), (0.2, 38.0), (0.25, 26.0)])
+def test_slow_wheels_coasting_through_the_goal_do_not_end_the_run_outside_it(
+    turn_model: SBLM, monkeypatch: pytest.MonkeyPatch, lag: float, angle: float
+) -> None:
+    """The filtered bearing trails the robot by the filter's lag: wheels that lag their
+    commands (time constant ``lag`` s, the nominal robot's is 0.03 s) carried the robot
+    through the goal below the rest tolerance's yaw rate, and the run ended on filtered
+    readings inside the 3 deg tolerance with the robot 3.1-3.7 deg off. With clean
+    readings the raw reading must hold the goal too."""
+    from behavior_hmm.models._policy import SimplePolicy
+    from behavior_hmm.sim import RobotParams, make_env
+
+    env = make_env("kinematic", params=RobotParams(motor_time_constant=lag))
+    start = {"angle": angle, "distance": 0.5}
+    trace = turn_model.generate(env, start=start, seed=0)
+    assert trace.goal_reached and trace.reason == "goal"
+    monkeypatch.setattr(SimplePolicy, "_held_unfiltered", lambda self: True)
+    before = turn_model.generate(env, start=start, seed=0)  # the filtered readings alone
+    assert before.reason == "goal" and not before.goal_reached
+    assert abs(before.final_errors()["angle"]) > 3.0

@@ -707,7 +707,11 @@ class SimplePolicy(GoalTracking, RateLimited):
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
         still = self._still()
         settled = self._brake_hold >= BRAKE_SETTLE_CYCLES and still
-        if settled and within_tolerance(values, self.goal, self._tolerance, self.channel_specs):
+        if (
+            settled
+            and within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
+            and self._held_unfiltered()
+        ):
             # braked to rest inside the goal's tolerance: done, whatever the category
             # (with stop_at_rest only once the readings show rest: slow wheels coast on);
             # on noisy readings once the next readings confirm it (``_decide``)
@@ -750,6 +754,22 @@ class SimplePolicy(GoalTracking, RateLimited):
     def _still(self) -> bool:
         """At rest by the readings when the stop rule waits for rest (``stop_at_rest``)."""
         return not self._at_rest or readings_at_rest(self._reading)
+
+    def _held_unfiltered(self) -> bool:
+        """Whether the goal also holds on this cycle's raw readings, which a policy that
+        confirms its own goal at rest (``stop_at_rest``) asks when they are not noisy.
+
+        The filtered readings trail a robot that still moves by the filter's lag (0.11 s
+        at 2 Hz): slow wheels (a 0.25 s motor lag) that coast through the goal below the
+        rest tolerance's yaw rate showed it inside the tolerance filtered while it was
+        already past it (a turn from 23 deg stopped 3.55 deg off, raw). Noisy readings are
+        judged on their mean instead (:class:`GoalConfirmation`). A component of a complex
+        behavior (whose goal the complex behavior confirms) and a stop rule that does not
+        wait for rest (the thesis preset) read the filtered readings only.
+        """
+        if not self._keeps_noise() or self._must_confirm():
+            return True
+        return within_tolerance(self._reading, self.goal, self._tolerance, self.channel_specs)
 
     def _rest_at_goal(self, now: FloatArray, rates: FloatArray, ramp: float) -> bool:
         """Whether a ramp to rest over ``ramp`` cycles, started now, ends at or past the goal.
@@ -835,8 +855,10 @@ class SimplePolicy(GoalTracking, RateLimited):
                 return held
         elif category in self._stop_set and not self._confirmation.holding:
             values = dict(zip(self._channels, now.tolist(), strict=True))
-            if within_tolerance(values, self.goal, self._tolerance, self.channel_specs) and (
-                not self._at_rest or readings_at_rest(reading)
+            if (
+                within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
+                and (not self._at_rest or readings_at_rest(reading))
+                and self._held_unfiltered()
             ):
                 if not self._started and self._confirmed < self.start_confirm_cycles:
                     # not moved yet: hold still while the (filtered) readings confirm it
