@@ -190,6 +190,14 @@ def test_every_fault_kind_has_levels() -> None:
         (["--task", "spin"], "spin"),
         (["--fault", "gremlins"], "gremlins"),
         (["--option", "calibrate"], "calibrate"),
+        (["--level", "gremlins=1"], "gremlins"),
+        (["--level", "noise"], "KIND=VALUE"),
+        (["--level", "noise=loud"], "the noise level must be a number, got 'loud'"),
+        (["--level", "noise=-0.01"], "the noise level must be >= 0"),
+        (["--level", "motor_lag=0"], "motor_time_constant must be > 0"),
+        (["--level", "speed_limit=inf"], "must be finite"),
+        (["--level", "push_bearing=1.5"], "in (0, 1), got 1.5"),
+        (["--level", "dropout=burst7"], "unknown dropout level 'burst7'"),
     ],
 )
 def test_command_refuses_unknown_task_or_fault(
@@ -200,3 +208,29 @@ def test_command_refuses_unknown_task_or_fault(
     )
     _cli_testing().assert_user_error(result, needle)
     assert not (tmp_path / "f").exists()
+
+
+def test_command_runs_the_levels_asked_for(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # levels between the sweep's (issue 27: "fault levels you have not seen")
+    from behavior_hmm.evaluate import _faults
+
+    seen: dict[str, Any] = {}
+
+    def first_start(**kwargs: Any) -> dict[str, Any]:
+        seen.update(kwargs)
+        return run_faults(**kwargs, n_starts=1)
+
+    monkeypatch.setattr(_faults, "run_faults", first_start)
+    out = tmp_path / "f"
+    args = ["experiment", "faults", "--sim", "kinematic", "--task", "turn", "--workers", "1"]
+    args += ["--fault", "noise", "--level", "motor_lag=0.25", "--level", "noise=0.015"]
+    result = CliRunner().invoke(app, [*args, "--level", "dropout=burst5", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert seen["faults"] == ["noise", "motor_lag", "dropout"]
+    assert seen["levels"] == {"motor_lag": [0.25], "noise": [0.015], "dropout": ["burst5"]}
+    cells = json.loads((out / "results.json").read_text())["tasks"][0]["cells"]
+    assert [(c["fault"], c["level"]) for c in cells] == [
+        ("noise", 0.015),
+        ("motor_lag", 0.25),
+        ("dropout", "burst5"),
+    ]

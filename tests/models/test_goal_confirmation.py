@@ -186,7 +186,6 @@ def test_a_noisy_run_that_moved_at_once_is_confirmed_before_it_ends(turn_model: 
     assert ended <= 2
 
 
-
 @pytest.mark.parametrize(("lag", "angle"), [(0.2, 32.0), (0.2, 38.0), (0.25, 26.0)])
 def test_slow_wheels_coasting_through_the_goal_do_not_end_the_run_outside_it(
     turn_model: SBLM, monkeypatch: pytest.MonkeyPatch, lag: float, angle: float

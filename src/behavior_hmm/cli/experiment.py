@@ -314,6 +314,14 @@ def experiment_faults(
             "speed_limit, push_bearing, push_distance, dropout"
         ),
     ] = None,
+    level: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Run this level of a fault kind instead of its sweep's levels "
+            "(repeatable; KIND=VALUE, e.g. motor_lag=0.25, noise=0.015, dropout=burst5); "
+            "only the kinds named by --fault and --level run"
+        ),
+    ] = None,
     option: Annotated[
         list[str] | None,
         typer.Option(
@@ -341,10 +349,11 @@ def experiment_faults(
     with the same results whoever runs them.
 
     Example: behavior-hmm experiment faults --sim kinematic --task turn --fault noise
+    --level motor_lag=0.25
     """
     from behavior_hmm._paths import check_outputs
     from behavior_hmm.evaluate._ablation import task as ablation_task
-    from behavior_hmm.evaluate._faults import fault_kind, run_faults
+    from behavior_hmm.evaluate._faults import fault_kind, parse_level, run_faults
     from behavior_hmm.models._presets import departure as check_departure
     from behavior_hmm.models._presets import option as check_option
     from behavior_hmm.viz._faults import write_faults_report
@@ -355,6 +364,11 @@ def experiment_faults(
         ablation_task(name)  # refuse bad names before any work
     for name in fault or []:
         fault_kind(name)
+    levels: dict[str, list[float | str]] = {}
+    for text in level or []:
+        kind, value = parse_level(text)
+        levels.setdefault(kind, []).append(value)
+    kinds = [*(fault or []), *(k for k in levels if k not in (fault or []))]
     for name in option or []:
         check_option(name)
     for name in without or []:
@@ -368,7 +382,8 @@ def experiment_faults(
         sim=sim,
         seed=seed,
         tasks=task or None,
-        faults=fault or None,
+        faults=kinds or None,
+        levels=levels or None,
         options=tuple(option or ()),
         without=tuple(without or ()),
     )

@@ -208,6 +208,42 @@ def fault_kind(name: str) -> FaultKind:
     raise ConfigError(f"unknown fault '{name}'; choose from {known}")
 
 
+def parse_level(text: str) -> tuple[str, Level]:
+    """A fault level written ``KIND=VALUE`` (``--level motor_lag=0.25``), checked.
+
+    Numbers for the physical faults (checked as :class:`~behavior_hmm.sim.RobotParams`
+    checks them), noise (>= 0) and pushes (a fraction of the teacher's duration in
+    (0, 1)); a dropout level is one of its kind's names.
+    """
+    import math
+
+    from behavior_hmm.sim import RobotParams
+
+    name, sep, value = text.partition("=")
+    if not sep or not value.strip():
+        raise ConfigError(f"a fault level is KIND=VALUE, e.g. motor_lag=0.25, got {text!r}")
+    kind = fault_kind(name.strip())
+    value = value.strip()
+    if kind.name == "dropout":
+        if value not in kind.levels:
+            known = ", ".join(str(v) for v in kind.levels)
+            raise ConfigError(f"unknown dropout level {value!r}; choose {known}")
+        return kind.name, value
+    try:
+        number = float(value)
+    except ValueError:
+        raise ConfigError(f"the {kind.name} level must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ConfigError(f"the {kind.name} level must be finite, got {value}")
+    if kind.name in _PARAM_OF:
+        RobotParams(**{_PARAM_OF[kind.name]: number})  # its own checks (ConfigError)
+    elif kind.name == "noise" and number < 0.0:
+        raise ConfigError(f"the noise level must be >= 0, got {value}")
+    elif kind.name.startswith("push_") and not 0.0 < number < 1.0:
+        raise ConfigError(f"a push level is a fraction of the teacher's run in (0, 1), got {value}")
+    return kind.name, number
+
+
 def level_label(kind: str, level: Level) -> str:
     """How a level is written in tables and figures."""
     if kind.startswith("push_"):
