@@ -423,6 +423,17 @@ class Predictor:
             self.index = PrototypeIndex(self.zaug, self.gs, self.wts)
         self._compiled: compiled.CompiledPredictor | None = None
 
+    def query(self) -> None:
+        """Set the screen's query ``paug`` for the current ``pt`` (a hot loop inlines
+        these two calls)."""
+        np.multiply(self.gm2, self.pt_col, out=self.top)
+        np.dot(self.pt, self.top, out=self.pn2)
+
+    def screen(self) -> FloatArray:
+        """Every category's screened (expanded) mismatch for the query ``paug``, into ``v``."""
+        np.dot(self.zaug, self.paug, out=self.s)
+        return clipped_mismatch(self.s, self.wts, out=self.v)
+
     def best(self) -> tuple[int, float]:
         """Category of least mismatch for the current ``pt`` (``paug`` set for it) and
         that mismatch, exact (module ``_exact``): every category screened into ``v``, or
@@ -430,8 +441,7 @@ class Predictor:
         pt = self.pt
         if self.index is not None:
             return self.index.search(pt, self.paug)
-        np.dot(self.zaug, self.paug, out=self.s)
-        v = clipped_mismatch(self.s, self.wts, out=self.v)
+        v = self.screen()
         margin = margin_of(self.pn2.tolist(), *self._margin_args)
         return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from behavior_hmm.cobart import _compiled as compiled
-from behavior_hmm.cobart._engine import aligned_zeros, clipped_mismatch
+from behavior_hmm.cobart._engine import aligned_zeros
 from behavior_hmm.cobart._exact import score_of
 from behavior_hmm.errors import ConfigError, DatasetError
 
@@ -104,13 +104,11 @@ class LiveCategorizer:
         """
         pred = self._pred
         if self._stale:
-            np.multiply(pred.gm2, pred.pt_col, out=pred.top)  # the screen's query for pt
-            np.dot(pred.pt, pred.top, out=pred.pn2)
+            pred.query()  # a search sets no query
             if pred.index is not None:
                 pred.index.mismatches(pred.paug, pred.v, pred.s)
             else:
-                np.dot(pred.zaug, pred.paug, out=pred.s)
-                clipped_mismatch(pred.s, pred.wts, out=pred.v)
+                pred.screen()
             self._stale = False
         view = pred.v.view()
         view.flags.writeable = False
