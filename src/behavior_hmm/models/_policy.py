@@ -707,11 +707,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         values = dict(zip(self._channels, filtered.tolist(), strict=True))
         still = self._still()
         settled = self._brake_hold >= BRAKE_SETTLE_CYCLES and still
-        if (
-            settled
-            and within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
-            and self._held_unfiltered()
-        ):
+        if settled and self._goal_holds(values):
             # braked to rest inside the goal's tolerance: done, whatever the category
             # (with stop_at_rest only once the readings show rest: slow wheels coast on);
             # on noisy readings once the next readings confirm it (``_decide``)
@@ -754,6 +750,15 @@ class SimplePolicy(GoalTracking, RateLimited):
     def _still(self) -> bool:
         """At rest by the readings when the stop rule waits for rest (``stop_at_rest``)."""
         return not self._at_rest or readings_at_rest(self._reading)
+
+    def _goal_holds(self, values: Mapping[str, float]) -> bool:
+        """Whether the stop rule's goal holds: ``values`` (the filtered readings,
+        physical units) within the tolerance, and the raw readings too where
+        :meth:`_held_unfiltered` asks them."""
+        return (
+            within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
+            and self._held_unfiltered()
+        )
 
     def _held_unfiltered(self) -> bool:
         """Whether the goal also holds on this cycle's raw readings, which a policy that
@@ -855,11 +860,7 @@ class SimplePolicy(GoalTracking, RateLimited):
                 return held
         elif category in self._stop_set and not self._confirmation.holding:
             values = dict(zip(self._channels, now.tolist(), strict=True))
-            if (
-                within_tolerance(values, self.goal, self._tolerance, self.channel_specs)
-                and (not self._at_rest or readings_at_rest(reading))
-                and self._held_unfiltered()
-            ):
+            if self._goal_holds(values) and (not self._at_rest or readings_at_rest(reading)):
                 if not self._started and self._confirmed < self.start_confirm_cycles:
                     # not moved yet: hold still while the (filtered) readings confirm it
                     self._confirmed += 1
