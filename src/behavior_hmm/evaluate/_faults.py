@@ -215,9 +215,8 @@ def parse_level(text: str) -> tuple[str, Level]:
     checks them), noise (>= 0) and pushes (a fraction of the teacher's duration in
     (0, 1)); a dropout level is one of its kind's names.
     """
-    import math
-
     from behavior_hmm.sim import RobotParams
+    from behavior_hmm.sim._options import check_noise, number
 
     name, sep, value = text.partition("=")
     if not sep or not value.strip():
@@ -229,19 +228,19 @@ def parse_level(text: str) -> tuple[str, Level]:
             known = ", ".join(str(v) for v in kind.levels)
             raise ConfigError(f"unknown dropout level {value!r}; choose {known}")
         return kind.name, value
+    what = f"the {kind.name} level"
     try:
-        number = float(value)
+        parsed = float(value)
     except ValueError:
-        raise ConfigError(f"the {kind.name} level must be a number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ConfigError(f"the {kind.name} level must be finite, got {value}")
+        raise ConfigError(f"{what} must be a number, got {value!r}") from None
+    if kind.name == "noise":
+        return kind.name, check_noise(parsed, what)  # as every simulated robot checks it
+    level = number(parsed, what)  # finite
     if kind.name in _PARAM_OF:
-        RobotParams(**{_PARAM_OF[kind.name]: number})  # its own checks (ConfigError)
-    elif kind.name == "noise" and number < 0.0:
-        raise ConfigError(f"the noise level must be >= 0, got {value}")
-    elif kind.name.startswith("push_") and not 0.0 < number < 1.0:
+        RobotParams(**{_PARAM_OF[kind.name]: level})  # its own checks (ConfigError)
+    elif kind.name.startswith("push_") and not 0.0 < level < 1.0:
         raise ConfigError(f"a push level is a fraction of the teacher's run in (0, 1), got {value}")
-    return kind.name, number
+    return kind.name, level
 
 
 def level_label(kind: str, level: Level) -> str:
