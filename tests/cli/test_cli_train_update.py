@@ -48,6 +48,8 @@ def test_update_writes_a_new_model_and_leaves_the_old_one_untouched(
     assert old.updates_ == []
     (record,) = new.updates_
     assert record["source"] == str(work["data"]) and record["episodes"] == 3
+    assert f"(with {record['rehearsed']:,} kept rows)" in result.stdout
+    assert record["rehearsed"] > 0  # the fine-tuned networks also trained on old rows
     assert new.primitives_.n_categories_ >= old.primitives_.n_categories_
     assert new.get_params() == old.get_params()
     assert new.train_data_ == old.train_data_
@@ -56,6 +58,12 @@ def test_update_writes_a_new_model_and_leaves_the_old_one_untouched(
     result = invoke(["train", "simple", work["data"], "--update", out, "-o", again])
     assert result.exit_code == 0, result.output
     assert len(SBLM.load(again).updates_) == 2
+    # inspect tells how many updates a model had and how many rows it keeps for the next
+    rows = SBLM.load(again).rehearsal_
+    assert rows is not None
+    shown = invoke(["inspect", again])
+    assert shown.exit_code == 0, shown.output
+    assert f"updates: 2; training rows kept for the next: {rows.n_rows:,}" in shown.stdout
 
 
 @pytest.mark.parametrize(

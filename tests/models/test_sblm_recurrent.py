@@ -44,13 +44,14 @@ def test_elman_generators_turn_to_their_goals(elman_model: SBLM) -> None:
 def test_training_sequences_are_the_segments_with_their_margins(turn_data: Dataset) -> None:
     model = SBLM(inputs=("angle",), epochs=1, window_noise=0.0, generator_network="elman")
     model.fit(turn_data)
-    features, _, states, groups, starts = model._generator_rows(
+    rows, _ = model._generator_rows(
         np.arange(turn_data.n_samples, dtype=np.float64)[:, None],
         np.zeros((turn_data.n_samples, 2)),
         model.train_states_,
         turn_data.lengths,
         turn_data.episode_ids,
     )
+    features, states, groups, starts = rows.features, rows.states, rows.groups, rows.starts
     bounds = np.r_[starts, len(states)]
     for a, b in itertools.pairwise(bounds):
         rows = features[a:b, 0]

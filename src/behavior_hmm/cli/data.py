@@ -462,8 +462,11 @@ def _model_summary(path: Path) -> dict[str, Any]:
         "train_data": model.train_data_,
         "provenance": dict(getattr(model, "provenance_", None) or {}),
     }
+    summary["updates"] = len(getattr(model, "updates_", None) or [])
     if model.kind == "SBLM":
         summary["primitives"] = int(model.primitives_.n_categories_)
+        rows = getattr(model, "rehearsal_", None)
+        summary["rehearsal_rows"] = 0 if rows is None else rows.n_rows
     else:
         summary["components"] = list(model.names_)
     return summary
@@ -491,6 +494,14 @@ def _print_model_summary(path: Path, summary: dict[str, Any]) -> None:
     console.print(f"  default goal: {goal}; step limit {summary['max_steps']}", markup=False)
     if summary.get("train_data"):
         console.print(f"  trained on: {summary['train_data']}", markup=False)
+    if "rehearsal_rows" in summary:
+        console.print(
+            f"  updates: {summary['updates']}; training rows kept for the next: "
+            f"{summary['rehearsal_rows']:,} (at most {summary['params']['rehearsal']} "
+            "a primitive)"
+        )
+    elif summary["updates"]:
+        console.print(f"  components added: {summary['updates']}")
     table = Table(title="parameters")
     table.add_column("parameter")
     table.add_column("value")

@@ -189,7 +189,8 @@ def _update_simple(
         f"(+{model.primitives_.n_categories_ - before[0]}), "
         f"{model.observations_.n_categories_} observation categories "
         f"(+{model.observations_.n_categories_ - before[1]}), generators fine-tuned: "
-        f"{tuned} ({time.perf_counter() - t0:.1f} s); {update} unchanged"
+        f"{tuned} (with {record.get('rehearsed', 0):,} kept rows) "
+        f"({time.perf_counter() - t0:.1f} s); {update} unchanged"
     )
 
 
