@@ -12,7 +12,13 @@ from behavior_hmm.data import Dataset
 from behavior_hmm.errors import ModelFileError
 from behavior_hmm.models import SBLM
 from behavior_hmm.models import _modelfile as mf
-from behavior_hmm.models._rehearsal import RehearsalRows, merged, rehearsal_rng, sample
+from behavior_hmm.models._rehearsal import (
+    DEFAULT_REHEARSAL,
+    RehearsalRows,
+    merged,
+    rehearsal_rng,
+    sample,
+)
 from behavior_hmm.teach import collect
 
 #: Starts between those of ``turn_data`` (every 20 deg from -170).
@@ -128,20 +134,29 @@ def test_merged_rows_number_their_demonstrations_and_runs_apart() -> None:
 
 
 def test_fit_keeps_rows_and_is_otherwise_unchanged(turn_data: Dataset, turn_model: SBLM) -> None:
-    rows = turn_model.rehearsal_
-    assert rows is not None and turn_model.rehearsal == 128
-    gens = turn_model.generators_
+    assert turn_model.rehearsal == DEFAULT_REHEARSAL and turn_model.rehearsal_ is not None
+    small = SBLM(inputs=("angle",), epochs=60, random_state=0, rehearsal=64).fit(turn_data)
+    rows = small.rehearsal_
+    assert rows is not None
+    gens = small.generators_
     kept = np.bincount(rows.primitives, minlength=gens.n_primitives_)
-    assert kept.max() == 128
+    assert kept.max() == 64
     # every primitive's originals counted (half its training rows: the rest are noise copies)
     np.testing.assert_array_equal(2 * rows.seen, gens.n_train_ + gens.n_test_)
-    np.testing.assert_array_equal(kept, np.minimum(rows.seen, 128))
+    np.testing.assert_array_equal(kept, np.minimum(rows.seen, 64))
     assert rows.features.shape[1] == gens.n_features_in_
-    # the kept rows are training rows: a trained network fits them as it fits the rest
+    # a primitive with no more rows than the cap keeps them all, in order, at any cap
+    whole = rows.seen <= 64
+    big = turn_model.rehearsal_
+    for p in np.flatnonzero(whole):
+        mine, theirs = rows.features[rows.primitives == p], big.features[big.primitives == p]
+        assert mine.tobytes() == theirs.tobytes(), p
+    # fitting is the same with any cap, or none
     none = SBLM(inputs=("angle",), epochs=60, random_state=0, rehearsal=0).fit(turn_data)
     assert none.rehearsal_ is None
-    for a, b in zip(none.generators_.coefs_, gens.coefs_, strict=True):
-        assert a.tobytes() == b.tobytes()
+    for model in (none, small):
+        for a, b in zip(model.generators_.coefs_, turn_model.generators_.coefs_, strict=True):
+            assert a.tobytes() == b.tobytes()
 
 
 def _model_bytes_without(path: Path, drop: str | None = None, **replace: np.ndarray) -> bytes:
@@ -166,7 +181,9 @@ def test_kept_rows_save_load_and_hostile_ones_are_refused(turn_model: SBLM, tmp_
     bad = {
         "lacks array": {"drop": "rehearsal.targets"},
         "names a primitive": {"rehearsal.index": np.c_[index[:, :1] * 0 + n_prim, index[:, 1:]]},
-        "more than rehearsal=128": {"rehearsal.index": np.c_[index[:, :1] * 0, index[:, 1:]]},
+        f"more than rehearsal={turn_model.rehearsal}": {
+            "rehearsal.index": np.c_[index[:, :1] * 0, index[:, 1:]]
+        },
         "counts fewer rows": {"rehearsal.seen": rows.seen * 0},
         "one count per primitive": {"rehearsal.seen": rows.seen[:-1]},
         "inputs and outputs": {"rehearsal.features": rows.features[:, :-1]},

@@ -4,7 +4,7 @@ the model file so that an update fine-tunes a network on old rows beside the new
 :meth:`SBLM.partial_fit <behavior_hmm.models.SBLM.partial_fit>` fine-tunes the network of
 every primitive the new demonstrations visit. Trained on the new rows alone, a network
 forgets what the old ones taught it (a turn fitted on half of its grid and grown by the
-other half fell from 96.7 to 85.5 % on the first half's starts; 98.1 % with 128 rows kept,
+other half fell from 96.7 to 85.5 % on the first half's starts; 98.2 % with 512 rows kept,
 docs/results.md). Continual learning's answer is
 rehearsal (experience replay): keep some of the old rows and train on them too. The
 model file keeps at most ``rehearsal`` rows a primitive (the SBLM parameter), drawn at
@@ -31,7 +31,7 @@ from behavior_hmm.errors import ModelFileError
 from behavior_hmm.models import _modelfile
 
 #: Rows of each primitive an SBLM keeps for its updates (its ``rehearsal`` default).
-DEFAULT_REHEARSAL: Final[int] = 128
+DEFAULT_REHEARSAL: Final[int] = 512
 #: Spawn key of the rehearsal draws (apart from the generators' ``(primitive, update)``).
 _SEED_KEY: Final[int] = 0x7265_6865  # "rehe"
 #: Array names in a model file, after the ``rehearsal.`` prefix.

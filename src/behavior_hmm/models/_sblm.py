@@ -316,12 +316,11 @@ class SBLM(LearnedBehavior):
         (``rehearsal_``, drawn at random; the window-noise copies are not kept) so that
         :meth:`partial_fit` fine-tunes a network on them beside the new rows; a network
         fine-tuned on new rows alone forgets the old ones (a turn fitted on half of its
-        grid and grown by the other half: 96.7 → 85.5 % on the first half's starts; 98.1 %
-        with the default 128 rows, docs/results.md, "An SBLM grown by new demonstrations of
-        its own behavior"). Each
-        row costs 8 bytes an input and an output in the model file, as float32 (the
-        default turn model: 3,968 rows, +60 KB). 0 keeps none (thesis; it has no
-        updates). Fitting is unchanged by it.
+        grid and grown by the other half: 96.7 → 85.5 % on the first half's starts; 98.2 %
+        with the default 512 rows, docs/results.md, "An SBLM grown by new demonstrations of
+        its own behavior"). The rows are stored as float32, deflated (the default turn
+        model keeps 9,623 rows, 222 → 311 KB; approach 4,096, 72 → 234 KB). 0 keeps none
+        (thesis; it has no updates). Fitting is unchanged by it.
     goal_braking
         If true (default; needs ``command_rate_limit`` > 0), when a ramp to rest at the
         rate limit started any later would overshoot the goal (predicted from
