@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from behavior_hmm.data import Dataset
-from behavior_hmm.errors import ModelFileError
+from behavior_hmm.errors import ConfigError, ModelFileError
 from behavior_hmm.models import SBLM
 from behavior_hmm.models import _modelfile as mf
 from behavior_hmm.models._rehearsal import (
@@ -88,6 +88,28 @@ def test_recurrent_generators_keep_whole_runs() -> None:
         np.testing.assert_array_equal(
             np.sort(rows.features[runs == run, 0]), np.arange(5) + run * 5
         )
+
+
+def test_a_run_that_does_not_fit_is_passed_over_not_the_rest() -> None:
+    """Runs of 400, 300, 50, 50 and 600 rows at a cap of 512: whatever the draw, the runs
+    that still fit after the first are kept (at least 400 rows, never past the cap)."""
+    lengths = [400, 300, 50, 50, 600]
+    segments = np.repeat(np.arange(5), lengths)
+    n = segments.size
+    for seed in range(20):
+        rows = sample(
+            np.zeros((n, 1)),
+            np.zeros((n, 1)),
+            np.zeros(n, dtype=np.int64),
+            np.zeros(n, dtype=np.int64),
+            segments,
+            np.ones(n),
+            np.array([n]),
+            cap=512,
+            by_segment=True,
+            rng=rehearsal_rng(seed, 0),
+        )
+        assert 400 <= rows.n_rows <= 512, (seed, rows.n_rows)
 
 
 def test_a_kept_row_stands_for_the_rows_it_was_drawn_from() -> None:
@@ -189,6 +211,9 @@ def test_kept_rows_save_load_and_hostile_ones_are_refused(turn_model: SBLM, tmp_
         "inputs and outputs": {"rehearsal.features": rows.features[:, :-1]},
         "beyond": {"rehearsal.targets": rows.targets + 1e7},
         "past its rows": {"rehearsal.index": np.c_[index[:, :2], index[:, 2:] + 10**6]},
+        "splits or mixes": {"rehearsal.index": np.c_[index[:, :2], index[::-1, 2:]]},
+        "outside": {"rehearsal.targets": rows.targets * 0 + 1.5},
+        "or more than": {"rehearsal.seen": rows.seen + 2**50},
     }
     for message, change in bad.items():
         drop = change.pop("drop", None)
@@ -284,3 +309,23 @@ def test_a_recurrent_sblm_keeps_whole_runs_and_rehearses_them(turn_data: Dataset
         assert (np.isclose(steps, tick, atol=1e-6) | np.isclose(steps, 0.0)).all(), steps
     model.partial_fit(collect("turn", NEW_STARTS[:2], sim="kinematic", seed=7))
     assert model.updates_[-1]["rehearsed"] > 0
+
+
+def test_a_lowered_rehearsal_is_refused_and_zero_drops_the_rows(
+    turn_model: SBLM, tmp_path: Path
+) -> None:
+    """A file never holds more rows a primitive than its ``rehearsal`` says."""
+    path = tmp_path / "m.bhmm"
+    turn_model.save(path)
+    new = collect("turn", NEW_STARTS[:2], sim="kinematic", seed=7)
+    low = SBLM.load(path).set_params(rehearsal=8)
+    with pytest.raises(ConfigError, match="rehearsal=8 is below"):
+        low.partial_fit(new)
+    with pytest.raises(ConfigError, match="rehearsal=8 is below"):
+        low.save(tmp_path / "low.bhmm")
+    assert not (tmp_path / "low.bhmm").exists()
+    none = SBLM.load(path).set_params(rehearsal=0)
+    none.partial_fit(new)
+    assert none.updates_[-1]["rehearsed"] == 0 and none.rehearsal_ is None
+    none.save(tmp_path / "none.bhmm")
+    assert SBLM.load(tmp_path / "none.bhmm").rehearsal_ is None

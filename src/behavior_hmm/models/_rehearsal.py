@@ -15,7 +15,8 @@ primitive that saw ``N`` rows and keeps ``k`` stands for ``N / k`` of them when 
 draws the next sample from the stored rows and the new ones (weighted sampling without
 replacement, Efraimidis and Spirakis 2006: each unit's key ``log(u) / w``, the largest
 keys kept). A unit is a row for feed-forward generators, and a run of consecutive rows of
-one primitive for recurrent ones, which train on sequences.
+one primitive for recurrent ones, which train on sequences (a run longer than the cap is
+passed over).
 """
 
 from __future__ import annotations
@@ -32,6 +33,12 @@ from behavior_hmm.models import _modelfile
 
 #: Rows of each primitive an SBLM keeps for its updates (its ``rehearsal`` default).
 DEFAULT_REHEARSAL: Final[int] = 512
+#: Most rows a model file's ``seen`` may count for one primitive (so updates never carry
+#: it past the file format's integer bound, 2**53).
+MAX_SEEN: Final[int] = 2**40
+#: Largest magnitude of a kept input row's value (normalized units: a reading far outside
+#: the demonstrations' range maps beyond ±1 linearly) that a model file may hold.
+MAX_FEATURE: Final[float] = 1e4
 #: Spawn key of the rehearsal draws (apart from the generators' ``(primitive, update)``).
 _SEED_KEY: Final[int] = 0x7265_6865  # "rehe"
 #: Array names in a model file, after the ``rehearsal.`` prefix.
@@ -140,13 +147,19 @@ def sample(
     # Efraimidis-Spirakis: the largest keys log(u) / w are a weighted sample
     key = np.log(np.maximum(u, np.finfo(np.float64).tiny)) / np.maximum(unit_weight, 1e-12)
     order = np.lexsort((-key, unit_prim))
-    rows_sorted = unit_rows[order]
-    prim_sorted = unit_prim[order]
-    total = np.cumsum(rows_sorted)
-    start = np.searchsorted(prim_sorted, prim_sorted, side="left")
-    before = np.where(start > 0, total[start - 1], 0)
     keep_units = np.zeros(first.size, dtype=bool)
-    keep_units[order[(total - before) <= cap]] = True
+    if by_segment:
+        # runs by key, each kept where it still fits (a longer run is passed over)
+        taken: dict[int, int] = {}
+        for i in order.tolist():
+            p, n = int(unit_prim[i]), int(unit_rows[i])
+            if taken.get(p, 0) + n <= cap:
+                taken[p] = taken.get(p, 0) + n
+                keep_units[i] = True
+    else:  # single rows: each primitive's first ``cap`` keys
+        prim_sorted = unit_prim[order]
+        start = np.searchsorted(prim_sorted, prim_sorted, side="left")
+        keep_units[order[np.arange(order.size) - start < cap]] = True
     keep = keep_units[unit_of_row]
     return RehearsalRows(
         np.asarray(features[keep], dtype=np.float32),
@@ -199,8 +212,9 @@ def from_arrays(
 
     Refused (:class:`ModelFileError`): a shape that disagrees with the generators, more
     than ``cap`` rows of a primitive, a primitive, demonstration or run number out of
-    range, ``seen`` below the rows kept (values beyond ``MAX_ABS_VALUE`` are refused
-    for every array by the file's reader).
+    range, runs of rows that are not consecutive or mix primitives or demonstrations,
+    ``seen`` below the rows kept or above ``MAX_SEEN``, targets outside [-1, 1], inputs
+    beyond ``MAX_FEATURE``.
     """
     feats = _modelfile.check_array(arrays, "rehearsal.features", ndim=2)
     targs = _modelfile.check_array(arrays, "rehearsal.targets", ndim=2)
@@ -219,14 +233,27 @@ def from_arrays(
         raise ModelFileError("array 'rehearsal.index' names a primitive the model lacks")
     if n and (min(groups.min(), segments.min()) < 0 or max(groups.max(), segments.max()) >= n):
         raise ModelFileError("array 'rehearsal.index' numbers demonstrations or runs past its rows")
+    # a run is consecutive rows (numbered in order) of one primitive and one demonstration
+    same = np.diff(segments) == 0
+    if (np.diff(segments) < 0).any() or (same & (np.diff(prim) != 0)).any():
+        raise ModelFileError("array 'rehearsal.index' splits or mixes a run of rows")
+    if (same & (np.diff(groups) != 0)).any():
+        raise ModelFileError("array 'rehearsal.index' mixes demonstrations in a run of rows")
     kept = np.bincount(prim, minlength=n_primitives)
     if kept.max(initial=0) > cap:
         raise ModelFileError(
             f"arrays 'rehearsal.*' keep more than rehearsal={cap} rows a primitive"
         )
     seen64 = seen.astype(np.int64)
-    if (seen64 < kept).any():
-        raise ModelFileError("array 'rehearsal.seen' counts fewer rows than it keeps")
+    if (seen64 < kept).any() or (seen64 > MAX_SEEN).any():
+        raise ModelFileError(
+            f"array 'rehearsal.seen' counts fewer rows than it keeps, or more than {MAX_SEEN:g}"
+        )
+    # as trained: targets clipped to [-1, 1], inputs in normalized units
+    if n and np.abs(targs).max() > 1.0:
+        raise ModelFileError("array 'rehearsal.targets' holds values outside [-1, 1]")
+    if n and np.abs(feats).max() > MAX_FEATURE:
+        raise ModelFileError(f"array 'rehearsal.features' holds values beyond ±{MAX_FEATURE:g}")
     return RehearsalRows(
         np.array(feats, dtype=np.float32),
         np.array(targs, dtype=np.float32),

@@ -320,7 +320,9 @@ class SBLM(LearnedBehavior):
         with the default 512 rows, docs/results.md, "An SBLM grown by new demonstrations of
         its own behavior"). The rows are stored as float32, deflated (the default turn
         model keeps 9,623 rows, 222 → 311 KB; approach 4,096, 72 → 234 KB). 0 keeps none
-        (thesis; it has no updates). Fitting is unchanged by it.
+        (thesis; it has no updates), and set after a fit drops the rows; a value below the
+        rows a fitted model keeps of a primitive is refused by :meth:`partial_fit` and
+        ``save``. Fitting is unchanged by it.
     goal_braking
         If true (default; needs ``command_rate_limit`` > 0), when a ramp to rest at the
         rate limit started any later would overshoot the goal (predicted from
@@ -843,6 +845,8 @@ class SBLM(LearnedBehavior):
             target = np.clip(step / self.delta_scale_, -1, 1)
         # the rows kept of every primitive the new demonstrations visit join its training
         stored: RehearsalRows | None = getattr(self, "rehearsal_", None)
+        if self.rehearsal == 0:  # set to keep none since the fit: none are used or kept
+            stored = None
         visited = np.unique(np.asarray(states, dtype=np.int64))
         kept = None if stored is None else stored.of(visited)
         rows, originals = self._generator_rows(
@@ -970,6 +974,15 @@ class SBLM(LearnedBehavior):
         fresh[:kept] = np.where(seen[:kept], np.minimum(old, fresh[:kept]), old)
         return fresh
 
+    def _check_rehearsal(self, rows: RehearsalRows) -> None:
+        """Refuse (ConfigError) a ``rehearsal`` lowered below the rows kept a primitive."""
+        most = int(np.bincount(rows.primitives).max(initial=0)) if rows.n_rows else 0
+        if 0 < self.rehearsal < most:
+            raise ConfigError(
+                f"rehearsal={self.rehearsal} is below the {most} rows this model keeps of a "
+                "primitive; keep it, raise it, or set 0 to keep none"
+            )
+
     def _check_update(self, dataset: Dataset, inputs: tuple[str, ...]) -> None:
         """Refuse (ConfigError) demonstrations that this fitted model cannot learn from."""
         if inputs != self.inputs_:
@@ -979,6 +992,9 @@ class SBLM(LearnedBehavior):
             )
         if getattr(self, "stops_", None) is None:
             raise ConfigError("this model file predates stops_; fit it again to update it")
+        kept: RehearsalRows | None = getattr(self, "rehearsal_", None)
+        if kept is not None:
+            self._check_rehearsal(kept)
         behavior = str(dataset.metadata.get("behavior", "behavior"))
         if behavior != self.behavior_:
             raise ConfigError(
@@ -1175,8 +1191,9 @@ class SBLM(LearnedBehavior):
             value = getattr(self, attribute, None)
             if value is not None:
                 arrays[name] = value
-        rehearsal = getattr(self, "rehearsal_", None)
+        rehearsal = getattr(self, "rehearsal_", None) if self.rehearsal else None
         if rehearsal is not None:
+            self._check_rehearsal(rehearsal)
             for name, arr in rehearsal.to_arrays().items():
                 arrays[f"rehearsal.{name}"] = arr
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
