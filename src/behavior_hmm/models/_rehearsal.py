@@ -234,8 +234,9 @@ def from_arrays(
     if n and (min(groups.min(), segments.min()) < 0 or max(groups.max(), segments.max()) >= n):
         raise ModelFileError("array 'rehearsal.index' numbers demonstrations or runs past its rows")
     # a run is consecutive rows (numbered in order) of one primitive and one demonstration
-    same = np.diff(segments) == 0
-    if (np.diff(segments) < 0).any() or (same & (np.diff(prim) != 0)).any():
+    steps = np.diff(segments)
+    same = steps == 0
+    if (steps < 0).any() or (same & (np.diff(prim) != 0)).any():
         raise ModelFileError("array 'rehearsal.index' splits or mixes a run of rows")
     if (same & (np.diff(groups) != 0)).any():
         raise ModelFileError("array 'rehearsal.index' mixes demonstrations in a run of rows")

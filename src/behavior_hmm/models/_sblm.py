@@ -815,6 +815,7 @@ class SBLM(LearnedBehavior):
         inputs = self._checked_inputs(getattr(dataset, "sensor_channels", SENSOR_CHANNELS))
         inputs = inputs or self.inputs_  # inputs="auto": the channels chosen at the fit
         self._check_update(dataset, inputs)
+        stored = self._stored_rows()  # refused here, before any work, if lowered
         dataset = self._as_learned(dataset)
         dataset = (
             without_unseen_corrections(dataset, inputs)
@@ -844,9 +845,6 @@ class SBLM(LearnedBehavior):
         else:
             target = np.clip(step / self.delta_scale_, -1, 1)
         # the rows kept of every primitive the new demonstrations visit join its training
-        stored: RehearsalRows | None = getattr(self, "rehearsal_", None)
-        if self.rehearsal == 0:  # set to keep none since the fit: none are used or kept
-            stored = None
         visited = np.unique(np.asarray(states, dtype=np.int64))
         kept = None if stored is None else stored.of(visited)
         rows, originals = self._generator_rows(
@@ -974,14 +972,20 @@ class SBLM(LearnedBehavior):
         fresh[:kept] = np.where(seen[:kept], np.minimum(old, fresh[:kept]), old)
         return fresh
 
-    def _check_rehearsal(self, rows: RehearsalRows) -> None:
-        """Refuse (ConfigError) a ``rehearsal`` lowered below the rows kept a primitive."""
+    def _stored_rows(self) -> RehearsalRows | None:
+        """The kept rows an update rehearses and a model file holds: none where
+        ``rehearsal`` is 0 (also when set so since the fit); a ``rehearsal`` lowered below
+        the rows kept of a primitive is refused (ConfigError)."""
+        rows: RehearsalRows | None = getattr(self, "rehearsal_", None)
+        if rows is None or self.rehearsal == 0:
+            return None
         most = int(np.bincount(rows.primitives).max(initial=0)) if rows.n_rows else 0
-        if 0 < self.rehearsal < most:
+        if self.rehearsal < most:
             raise ConfigError(
                 f"rehearsal={self.rehearsal} is below the {most} rows this model keeps of a "
                 "primitive; keep it, raise it, or set 0 to keep none"
             )
+        return rows
 
     def _check_update(self, dataset: Dataset, inputs: tuple[str, ...]) -> None:
         """Refuse (ConfigError) demonstrations that this fitted model cannot learn from."""
@@ -992,9 +996,6 @@ class SBLM(LearnedBehavior):
             )
         if getattr(self, "stops_", None) is None:
             raise ConfigError("this model file predates stops_; fit it again to update it")
-        kept: RehearsalRows | None = getattr(self, "rehearsal_", None)
-        if kept is not None:
-            self._check_rehearsal(kept)
         behavior = str(dataset.metadata.get("behavior", "behavior"))
         if behavior != self.behavior_:
             raise ConfigError(
@@ -1191,9 +1192,8 @@ class SBLM(LearnedBehavior):
             value = getattr(self, attribute, None)
             if value is not None:
                 arrays[name] = value
-        rehearsal = getattr(self, "rehearsal_", None) if self.rehearsal else None
+        rehearsal = self._stored_rows()
         if rehearsal is not None:
-            self._check_rehearsal(rehearsal)
             for name, arr in rehearsal.to_arrays().items():
                 arrays[f"rehearsal.{name}"] = arr
         for prefix, net in (("prim", self.primitives_), ("obs", self.observations_)):
