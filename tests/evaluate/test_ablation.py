@@ -57,9 +57,6 @@ def test_rows_of_a_simple_task_leave_out_cblm_departures() -> None:
         + [
             "default + shared_init",
             "default + recover",
-            "default + start_envelope",
-            "default + onset_floor",
-            "default + input_range",
             "default + auto_inputs",
         ]
     )
@@ -68,9 +65,8 @@ def test_rows_of_a_simple_task_leave_out_cblm_departures() -> None:
 
 def test_rows_of_the_complex_task_cover_every_departure() -> None:
     rows = ablation_rows(task("turn-approach"))
-    # + elman, − onset_clock + elman, + shared_init, + recover, + start_envelope,
-    # + onset_floor, + input_range, + auto_inputs
-    assert len(rows) == 2 + 2 * len(DEPARTURES) + 8
+    # + elman, − onset_clock + elman, + shared_init, + recover, + auto_inputs
+    assert len(rows) == 2 + 2 * len(DEPARTURES) + 5
     assert {n for r in rows for n in r.switched} == {d.name for d in DEPARTURES}
     assert [t.name for t in ABLATION_TASKS] == ["turn", "approach", "turn-approach"]
 

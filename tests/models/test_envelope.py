@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from behavior_hmm.models import SBLM, load
 from behavior_hmm.models._envelope import merged_envelope, startup_envelope
 from behavior_hmm.models._policy import SimplePolicy
-from behavior_hmm.models._presets import option
+from behavior_hmm.models._presets import departure
 
 REST = np.array([0.0, 0.0])
 
@@ -71,42 +71,72 @@ def _with_envelope(model: SBLM, on: bool) -> SBLM:
     return view
 
 
-def _excess(commands: np.ndarray, envelope: np.ndarray) -> float:
-    """How far the first commands of a run leave the envelope (rad/s; <= 0: inside)."""
-    n = min(len(commands), len(envelope))
-    return float((np.abs(commands[:n]) - envelope[:n]).max())
+def _unshown(model: SBLM, states: list[int], cycles: int) -> np.ndarray:
+    """Per cycle of a run from rest (the first ``cycles``): whether its primitive's network
+    was never trained on a clock as early as that cycle's (``onset_floor_``)."""
+    floors = model.onset_floor_
+    assert floors is not None
+    clock = np.minimum(np.arange(cycles), model.onset_clock) / model.onset_clock
+    return np.array([floors[s] > c for s, c in zip(states[:cycles], clock, strict=False)])
 
 
-def test_a_run_from_rest_starts_no_faster_than_the_demonstrations(
+def _excess(commands: np.ndarray, envelope: np.ndarray, where: np.ndarray) -> float:
+    """How far a run's commands leave the envelope in the cycles ``where`` marks (rad/s;
+    <= 0: inside)."""
+    n = min(len(commands), len(envelope), len(where))
+    away = np.abs(commands[:n]) - envelope[:n]
+    return float(away[where[:n]].max(initial=-np.inf))
+
+
+def test_a_network_never_shown_a_start_starts_no_faster_than_the_demonstrations(
     turn_model: SBLM, kinematic_env: Any
 ) -> None:
     envelope = turn_model.start_envelope_
     assert envelope is not None and envelope.shape[1] == 2
-    # starts between the demonstrated ones (every 20 deg from -170): without the envelope
-    # the generators leave rest faster than any demonstration somewhere, with it never
+    # starts between the demonstrated ones (every 20 deg from -170): there, networks of
+    # primitives met only mid-turn run at rest and leave it faster than any
+    # demonstration; bounded, never, while a network shown the starts runs its own
     starts = [{"angle": a, "distance": 0.5} for a in (-95.0, -35.0, 25.0, 65.0, 125.0)]
     plain = [
-        _with_envelope(turn_model, False).generate(kinematic_env, start=s, seed=0).commands
-        for s in starts
+        _with_envelope(turn_model, False).generate(kinematic_env, start=s, seed=0) for s in starts
     ]
     bounded = [
-        _with_envelope(turn_model, True).generate(kinematic_env, start=s, seed=0).commands
-        for s in starts
+        _with_envelope(turn_model, True).generate(kinematic_env, start=s, seed=0) for s in starts
     ]
-    assert max(_excess(np.asarray(c), envelope) for c in plain) > 0.05
-    assert max(_excess(np.asarray(c), envelope) for c in bounded) <= 1e-12
-    # the envelope only bounds: each bounded run still turns to its goal
-    for start, commands in zip(starts, bounded, strict=True):
-        trace = _with_envelope(turn_model, True).generate(kinematic_env, start=start, seed=0)
-        assert trace.goal_reached, start
-        assert len(commands) == len(trace.commands)
+    n = len(envelope)
+    excess = [
+        _excess(np.asarray(t.commands), envelope, _unshown(turn_model, t.state, n)) for t in plain
+    ]
+    assert max(excess) > 0.05
+    rate = SimplePolicy(turn_model, None)._rate
+    for start, run, free in zip(starts, bounded, plain, strict=True):
+        unshown = _unshown(turn_model, run.state, n)
+        commands = np.asarray(run.commands)
+        # bounded until a network shown the starts has taken the run beyond the envelope;
+        # from there nothing is (clipped back, the command would jump)
+        m = min(len(commands), n)
+        beyond = np.any(np.abs(commands[:m]) > envelope[:m] + 1e-12, axis=1) & ~unshown[:m]
+        until = int(np.argmax(beyond)) if beyond.any() else m
+        assert _excess(commands[:until], envelope, unshown[:until]) <= 1e-12, start
+        assert np.abs(np.diff(commands, axis=0)).max() <= rate * (1 + 1e-9), start
+        # until the first cycle of a network never shown a start, the run is the same
+        first = int(np.argmax(unshown)) if unshown.any() else min(n, len(commands))
+        np.testing.assert_array_equal(commands[:first], np.asarray(free.commands)[:first])
+        assert run.goal_reached, start  # the envelope only bounds
+    # somewhere a network shown the starts leaves rest faster than the envelope
+    shown = [
+        _excess(np.asarray(t.commands), envelope, ~_unshown(turn_model, t.state, n))
+        for t in bounded
+    ]
+    assert max(shown) > 0.0
 
 
 def test_a_run_carried_on_at_speed_is_not_bounded(turn_model: SBLM) -> None:
     reading = {"angle": 60.0, "distance": 0.5, "linear_velocity": 0.0, "angular_velocity": 0.0}
     model = _with_envelope(turn_model, True)
     envelope = model.start_envelope_
-    assert envelope is not None
+    assert envelope is not None and model.onset_floor_ is not None
+    model.onset_floor_ = np.ones_like(model.onset_floor_)  # no network was shown a start
     from_rest = SimplePolicy(model, None)
     first = from_rest.step(reading).command
     assert np.all(np.abs(first) <= envelope[0] + 1e-12)
@@ -132,8 +162,9 @@ def test_the_envelope_is_saved_and_refitted_alike(
     np.testing.assert_array_equal(grown.start_envelope_, whole)
 
 
-def test_start_envelope_is_an_option_of_the_ablation() -> None:
-    assert option("start_envelope").params == {"SBLM": {"start_envelope": True}}
-    assert SBLM(inputs=("angle",)).start_envelope is False
+def test_start_envelope_is_a_departure_of_the_default() -> None:
+    assert departure("start_envelope").thesis == {"SBLM": {"start_envelope": False}}
+    assert SBLM(inputs=("angle",)).start_envelope is True
+    assert SBLM.from_preset("thesis", inputs=("angle",)).start_envelope is False
     with pytest.raises(Exception, match="start_envelope must be true or false"):
         SBLM(inputs=("angle",), start_envelope="yes").check_params()  # type: ignore[arg-type]

@@ -66,7 +66,9 @@ def test_a_start_beyond_every_row_reads_as_its_primitive_was_shown(
     assert ranges is not None
     start = {"angle": 179.0, "distance": 0.5}
     assert 179.0 / 180.0 > ranges[:, 1].max()  # beyond every row (angles normalized /180)
-    plain = _windows_read(turn_model, kinematic_env, [start], monkeypatch)
+    off = copy.copy(turn_model)
+    off.input_range = False
+    plain = _windows_read(off, kinematic_env, [start], monkeypatch)
     # the readings as they are: the first network reads a bearing none of its rows held
     assert _outside(ranges, plain[:1]) == 1
     view = copy.copy(turn_model)

@@ -54,7 +54,9 @@ def test_a_network_reads_no_clock_earlier_than_it_was_trained_on(
     floors = turn_model.onset_floor_
     assert floors is not None
     starts = [{"angle": a, "distance": 0.5} for a in (-95.0, -35.0, 25.0, 65.0, 125.0)]
-    plain = _clocks_read(turn_model, kinematic_env, starts, monkeypatch)
+    off = copy.copy(turn_model)
+    off.onset_floor = False
+    plain = _clocks_read(off, kinematic_env, starts, monkeypatch)
     # the clock as it runs: mid-turn primitives decoded at these starts read clocks
     # earlier than any row they were trained on
     assert any(clock < floors[p] - 1e-9 for p, clock in plain)

@@ -138,9 +138,6 @@ def test_every_option_is_off_in_both_presets_and_names_real_parameters() -> None
         "elman",
         "shared_init",
         "recover",
-        "start_envelope",
-        "onset_floor",
-        "input_range",
         "auto_inputs",
     ]
     for item in OPTIONS:

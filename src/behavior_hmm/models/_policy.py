@@ -427,8 +427,13 @@ class SimplePolicy(GoalTracking, RateLimited):
         #: complex behavior gives its components its own ``start_alternatives``)
         self.start_alternatives = 0
         floors = getattr(model, "onset_floor_", None)
-        #: ``onset_floor``: the earliest clock each primitive's network was trained on
+        #: the earliest clock each primitive's network was trained on (None: no clock)
+        self._learned_floors = floors
+        #: ``onset_floor``: the network is fed no earlier clock than that
         self._floors = floors if getattr(model, "onset_floor", False) else None
+        #: ``start_envelope``: whether this cycle's primitive's network was never trained
+        #: on a clock this early (a primitive met only mid-motion, at a start from rest)
+        self._unshown_start = True
         ranges = getattr(model, "input_range_", None)
         #: ``input_range``: the sensor-window range each primitive's network was trained on
         self._ranges = ranges if getattr(model, "input_range", False) else None
@@ -503,15 +508,20 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._returning = False
         self._arrival_reset()
         self._from_rest = None
+        self._unshown_start = True
 
     def _limited(self, out: StepOutput) -> StepOutput:
         """The rate limit, then (``start_envelope``) the demonstrations' start-up envelope.
 
         A run whose first command left from rest (not one a complex behavior carried on
         at speed) is held, at onset clock cycle ``t``, within ``rest ± envelope[t]``
-        until the envelope ends (module ``models._envelope``)."""
+        until the envelope ends (module ``models._envelope``), in the cycles whose
+        primitive's network was never trained on a clock as early as ``t``: a network
+        shown the demonstrations' starts runs its own start-up. A command such a network
+        took beyond the envelope is brought back into it at the rate limit, not at once."""
         if self._from_rest is None:
             self._from_rest = self._at_rest_command(self._last)
+        before = self._last
         out = super()._limited(out)
         envelope = self._envelope
         if envelope is None or not self._from_rest or out.done:
@@ -520,8 +530,12 @@ class SimplePolicy(GoalTracking, RateLimited):
         if t >= envelope.shape[0]:
             self._from_rest = False  # past the start-up: nothing more to bound
             return out
+        if not self._unshown_start:
+            return out
         rest = self._rest_command
         u = rest + np.clip(out.command - rest, -envelope[t], envelope[t])
+        if self._rate > 0.0:  # from a command beyond the envelope: back at the rate limit
+            u = before + np.clip(u - before, -self._rates, self._rates)
         self._last = u
         return out._replace(command=u)
 
@@ -887,6 +901,11 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._state = state
         self._started = True
         row = self._features.row()
+        learned = self._learned_floors
+        # the clock is the row's last feature: was this network trained on one this early?
+        self._unshown_start = (
+            learned is None or state >= learned.shape[0] or row[-1] < learned[state]
+        )
         floors = self._floors
         if floors is not None and state < floors.shape[0] and row[-1] < floors[state]:
             row[-1] = floors[state]  # the clock is the row's last feature; rewritten each cycle

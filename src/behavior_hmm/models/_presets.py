@@ -157,6 +157,24 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "reachable category near it (within 12 cm / 36°)",
     ),
     Departure(
+        "start_envelope",
+        {"SBLM": {"start_envelope": False}},
+        "a run from rest leaves rest no faster than any demonstration had by the same "
+        "cycle (the demonstrations' start-up envelope)",
+    ),
+    Departure(
+        "onset_floor",
+        {"SBLM": {"onset_floor": False}},
+        "each primitive's network reads the onset clock no earlier than its own training "
+        "rows began",
+    ),
+    Departure(
+        "input_range",
+        {"SBLM": {"input_range": False}},
+        "a run that starts beyond the demonstrations reads each input clipped to the range "
+        "its primitive's rows held, until the input has been inside all the rows' range",
+    ),
+    Departure(
         "observation_vigilance",
         {"CBLM": {"observation_vigilance": 0.95}},
         "CBLM observation categories at ρ 0.99 (thesis: 0.95)",
@@ -274,24 +292,6 @@ OPTIONS: Final[tuple[Option, ...]] = (
         {"SBLM": {"recover": True}},
         "a run that leaves the demonstrations is steered back to the nearest observation "
         "category's prototype",
-    ),
-    Option(
-        "start_envelope",
-        {"SBLM": {"start_envelope": True}},
-        "a run from rest leaves rest no faster than any demonstration had by the same "
-        "cycle (the demonstrations' start-up envelope)",
-    ),
-    Option(
-        "onset_floor",
-        {"SBLM": {"onset_floor": True}},
-        "each primitive's network reads the onset clock no earlier than its own training "
-        "rows began",
-    ),
-    Option(
-        "input_range",
-        {"SBLM": {"input_range": True}},
-        "a run that starts beyond the demonstrations reads each input clipped to the range "
-        "its primitive's rows held, until the input has been inside all the rows' range",
     ),
     Option(
         "auto_inputs",
