@@ -426,11 +426,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         #: tried when none starts from the current one (0: the run is unreachable; a
         #: complex behavior gives its components its own ``start_alternatives``)
         self.start_alternatives = 0
-        floors = getattr(model, "onset_floor_", None)
         #: the earliest clock each primitive's network was trained on (None: no clock)
-        self._learned_floors = floors
+        self._floors = getattr(model, "onset_floor_", None)
         #: ``onset_floor``: the network is fed no earlier clock than that
-        self._floors = floors if getattr(model, "onset_floor", False) else None
+        self._hold_floor = bool(getattr(model, "onset_floor", False))
         #: ``start_envelope``: whether this cycle's primitive's network was never trained
         #: on a clock this early (a primitive met only mid-motion, at a start from rest)
         self._unshown_start = True
@@ -901,14 +900,14 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._state = state
         self._started = True
         row = self._features.row()
-        learned = self._learned_floors
-        # the clock is the row's last feature: was this network trained on one this early?
-        self._unshown_start = (
-            learned is None or state >= learned.shape[0] or row[-1] < learned[state]
-        )
         floors = self._floors
-        if floors is not None and state < floors.shape[0] and row[-1] < floors[state]:
-            row[-1] = floors[state]  # the clock is the row's last feature; rewritten each cycle
+        # the clock is the row's last feature: was this network trained on one this early?
+        if floors is None or state >= floors.shape[0]:
+            self._unshown_start = True
+        else:
+            self._unshown_start = bool(row[-1] < floors[state])
+            if self._unshown_start and self._hold_floor:
+                row[-1] = floors[state]  # rewritten each cycle
         ranges, overall = self._ranges, self._overall
         if ranges is not None and overall is not None and state < ranges.shape[0]:
             # a channel is held to its primitive's range until the run's readings have
