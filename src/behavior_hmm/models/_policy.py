@@ -293,11 +293,13 @@ class RateLimited:
         self._stopping = None
         self._label = ""
 
+    def _toward(self, start: FloatArray, target: FloatArray) -> FloatArray:
+        """``target``, or as close to it as one step of the rate limit from ``start`` goes."""
+        return start + np.clip(target - start, -self._rates, self._rates)
+
     def _ramped_down(self) -> FloatArray:
         """The command one step of the rate limit closer to rest (and now the last one)."""
-        self._last = self._last + np.clip(
-            self._rest_command - self._last, -self._rates, self._rates
-        )
+        self._last = self._toward(self._last, self._rest_command)
         return self._last
 
     def _at_rest_command(self, command: FloatArray) -> bool:
@@ -327,7 +329,7 @@ class RateLimited:
             return self._stopping._replace(command=u, done=self._at_rest_command(u))
         u = out.command
         if self._limit_motion:
-            u = self._last + np.clip(u - self._last, -self._rates, self._rates)
+            u = self._toward(self._last, u)
         self._last = u
         return out._replace(command=u)
 
@@ -534,7 +536,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         rest = self._rest_command
         u = rest + np.clip(out.command - rest, -envelope[t], envelope[t])
         if self._rate > 0.0:  # from a command beyond the envelope: back at the rate limit
-            u = before + np.clip(u - before, -self._rates, self._rates)
+            u = self._toward(before, u)
         self._last = u
         return out._replace(command=u)
 
