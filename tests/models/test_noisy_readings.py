@@ -124,23 +124,26 @@ def test_a_component_starts_filtering_where_the_complex_behavior_is(
     assert abs(starts[0]["angle"]) < SIGMA_ANGLE  # the turn ended at 0 deg
 
 
-def _components(model: CBLM, angle: float, seed: int | None, rule: bool) -> list[Any]:
-    """Each cycle's component and command of an open-loop run of ``model`` held at
-    ``angle`` and 0.5 m (with the noise of sensor noise 0.01 when ``seed`` is given)."""
+def _run(model: CBLM, angles: np.ndarray, distances: np.ndarray, rule: bool) -> list[Any]:
+    """Each cycle's component and command of an open-loop run of ``model`` fed these
+    readings of the bearing (deg) and the distance (m), with or without the rule that a
+    running component finishes its goal first."""
     policy = model.policy(None)
     if not rule:
         policy._unfinished = lambda *args: False  # type: ignore[method-assign]
     policy.reset()
+    steps = [
+        policy.step(_reading(float(a), float(d))) for a, d in zip(angles, distances, strict=True)
+    ]
+    return [(step.component, tuple(step.command)) for step in steps]
+
+
+def _held(model: CBLM, angle: float, seed: int, rule: bool) -> list[Any]:
+    """:func:`_run` of a robot held at ``angle`` and 0.5 m, read with sensor noise 0.01."""
     rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(200):
-        a, d = angle, 0.5
-        if seed is not None:
-            a += float(rng.normal(0.0, SIGMA_ANGLE))
-            d += float(rng.normal(0.0, SIGMA_DISTANCE))
-        step = policy.step(_reading(a, d))
-        out.append((step.component, tuple(np.round(step.command, 12))))
-    return out
+    angles = angle + rng.normal(0.0, SIGMA_ANGLE, 200)
+    distances = 0.5 + rng.normal(0.0, SIGMA_DISTANCE, 200)
+    return _run(model, angles, distances, rule)
 
 
 def _turn_to_approach(run: list[Any]) -> int:
@@ -151,8 +154,8 @@ def test_a_noisy_turn_is_not_replaced_before_its_goal_holds(ta_model: CBLM) -> N
     """The demonstrations end the turn at its bearing before they approach: on noisy
     readings the plan's approach waits while the turn's goal does not hold (a robot held
     6 deg off the bearing), where without the rule the noise hands the run back and forth."""
-    with_rule = [_components(ta_model, -6.0, seed, rule=True) for seed in range(6)]
-    without = [_components(ta_model, -6.0, seed, rule=False) for seed in range(6)]
+    with_rule = [_held(ta_model, -6.0, seed, rule=True) for seed in range(6)]
+    without = [_held(ta_model, -6.0, seed, rule=False) for seed in range(6)]
     assert sum(_turn_to_approach(run) for run in with_rule) == 0
     assert sum(_turn_to_approach(run) for run in without) >= 2
     assert any(name == "turn" for run in with_rule for name, _ in run)
@@ -164,16 +167,6 @@ def test_clean_readings_replace_a_running_component_as_before(ta_model: CBLM) ->
     for first, last in ((-40.0, -6.0), (40.0, 6.0), (-90.0, -10.0)):
         angles = np.concatenate([np.linspace(first, last, 60), np.full(140, last)])
         distances = np.concatenate([np.full(60, 0.5), np.linspace(0.5, 0.2, 140)])
-        runs = []
-        for rule in (True, False):
-            policy = ta_model.policy(None)
-            if not rule:
-                policy._unfinished = lambda *args: False  # type: ignore[method-assign]
-            policy.reset()
-            steps = [
-                policy.step(_reading(float(a), float(d)))
-                for a, d in zip(angles, distances, strict=True)
-            ]
-            runs.append([(step.component, tuple(step.command)) for step in steps])
+        runs = [_run(ta_model, angles, distances, rule) for rule in (True, False)]
         assert runs[0] == runs[1]
         assert _turn_to_approach(runs[0]) == 1
