@@ -10,8 +10,10 @@ from behavior_hmm.generators._features import (
     FeatureLayout,
     OnlineFeatures,
     grown_ranges,
+    grown_start_ranges,
     input_ranges,
     onset_floors,
+    start_ranges,
 )
 from behavior_hmm.teach import collect
 
@@ -125,3 +127,46 @@ def test_grown_ranges_widen_only_primitives_with_new_rows() -> None:
     assert grown[0].tolist() == old[0].tolist()  # no new rows: as it was
     assert grown[1].tolist() == [[-0.4], [0.5]]  # the union of its old and new rows
     assert grown[2].tolist() == [[0.9], [0.9]]  # a new primitive: its own rows
+
+
+def test_start_ranges_widen_with_the_onset_clock() -> None:
+    # two channels of windows of 2; clock of 4 cycles (a row's clock: min(k, 4) / 4)
+    windows = np.array(
+        [
+            [0.5, 0.6, 0.0, 0.0],  # primitive 0 at cycle 0
+            [0.3, 0.4, 0.1, 0.2],  # primitive 0 at cycle 2
+            [-0.2, 0.0, -0.5, 0.9],  # primitive 0 from cycle 4 on (the clock's end)
+            [0.8, 0.9, 0.3, 0.3],  # primitive 2 at cycle 1
+        ]
+    )
+    clock = np.array([0.0, 0.5, 1.0, 0.25])
+    states = np.array([0, 0, 0, 2])
+    ranges = start_ranges(windows, clock, states, 3, 2, 4)
+    assert ranges.shape == (3, 2, 5, 2)
+    # primitive 0, channel 0: what its rows held by cycles 0..4
+    assert ranges[0, 0].tolist() == [
+        [0.5, 0.6],
+        [0.5, 0.6],
+        [0.3, 0.6],
+        [0.3, 0.6],
+        [-0.2, 0.6],
+    ]
+    assert ranges[0, 1, 4].tolist() == [-0.5, 0.9]  # the clock's end: every row
+    # no row by cycle 0 for primitive 2, none at all for primitive 1
+    assert np.isnan(ranges[2, :, 0]).all() and ranges[2, 0, 1].tolist() == [0.8, 0.9]
+    assert np.isnan(ranges[1]).all()
+    # the clock's end holds each primitive's whole range (input_ranges of its rows)
+    whole = input_ranges(windows, states, 3)
+    np.testing.assert_array_equal(ranges[0, 0, 4], [whole[0, 0, :2].min(), whole[0, 1, :2].max()])
+
+
+def test_grown_start_ranges_widen_only_primitives_with_new_rows() -> None:
+    old = start_ranges(np.array([[0.2], [0.5]]), np.array([0.0, 1.0]), np.array([0, 1]), 2, 1, 2)
+    rows, clock, states = np.array([[-0.4], [0.9]]), np.array([0.5, 0.0]), np.array([1, 2])
+    grown = grown_start_ranges(old, start_ranges(rows, clock, states, 3, 1, 2), states)
+    assert grown.shape == (3, 1, 3, 2)
+    np.testing.assert_array_equal(grown[0], old[0])  # no new rows: as it was
+    # primitive 1 had a row at the clock's end only; its new one came at cycle 1
+    assert np.isnan(grown[1, 0, 0]).all()
+    assert grown[1, 0, 1:].tolist() == [[-0.4, -0.4], [-0.4, 0.5]]
+    assert grown[2, 0].tolist() == [[0.9, 0.9]] * 3  # a new primitive: its own rows

@@ -12,6 +12,7 @@ import pytest
 
 from behavior_hmm.generators import _motion
 from behavior_hmm.models import SBLM
+from behavior_hmm.teach import collect
 
 
 def _record_windows(model: SBLM, patch: pytest.MonkeyPatch) -> list[tuple[int, np.ndarray]]:
@@ -121,3 +122,122 @@ def test_a_model_without_ranges_stays_without_them_when_grown(turn_data: Any) ->
     model.input_range_ = None
     grown = model.partial_fit(turn_data.subset(np.arange(n // 2, n)))
     assert grown.input_range_ is None
+
+
+@pytest.fixture(scope="module")
+def near_approach() -> SBLM:
+    """An approach whose nearest demonstrated start is 0.1 m off the object (kinematic)."""
+    starts = [{"distance": d, "angle": 0.0} for d in (0.1, 0.2, 0.3, 0.5)]
+    data = collect("approach", starts, sim="kinematic", seed=0)
+    return SBLM(inputs=("distance", "angle"), epochs=30, random_state=0).fit(data)
+
+
+def _start_reads(
+    model: SBLM, env: Any, distance: float, monkeypatch: pytest.MonkeyPatch
+) -> tuple[Any, list[tuple[int, np.ndarray]]]:
+    """A run from rest at ``distance`` and the (primitive, row) its networks read."""
+    seen: list[tuple[int, np.ndarray]] = []
+    original = _motion.MotionGenerators.predict_one
+
+    def recording(self: Any, x: np.ndarray, primitive: int) -> np.ndarray:
+        seen.append((int(primitive), np.array(x)))
+        return original(self, x, primitive)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(_motion.MotionGenerators, "predict_one", recording)
+        run = model.generate(env, start={"distance": distance, "angle": 0.0}, seed=0)
+    return run, seen
+
+
+def _beyond_start_ups(model: SBLM, reads: list[tuple[int, np.ndarray]]) -> int:
+    """Reads of the clock's first cycles whose distance windows lie outside what their
+    primitive's rows held by the clock read (``start_range_``)."""
+    starts = model.start_range_
+    assert starts is not None
+    cycles = starts.shape[2] - 1
+    window = int(model.generators_.window)
+    count = 0
+    for p, row in reads:
+        k = int(np.rint(row[-1] * cycles))
+        lo, hi = starts[p, 0, k]
+        if k < cycles and lo <= hi:
+            d = row[:window]
+            count += bool(np.any((d < lo - 1e-12) | (d > hi + 1e-12)))
+    return count
+
+
+def test_start_ranges_are_learned_per_onset_clock_cycle(near_approach: SBLM) -> None:
+    starts = near_approach.start_range_
+    assert starts is not None
+    assert starts.shape == (near_approach.primitives_.n_categories_, 2, 97, 2)
+    # what the rows held by a cycle only widens with the clock
+    lo, hi = starts[..., 0], starts[..., 1]
+    seen = ~np.isnan(lo)
+    assert np.all(np.diff(np.where(seen, lo, 9.0), axis=2) <= 0)
+    assert np.all(np.diff(np.where(seen, hi, -9.0), axis=2) >= 0)
+    # at cycle 0 the distance of the demonstrated starts only: 0.1 to 0.5 m (normalized
+    # over 0..1.2 m to [-1, 1]), with the clock's end everything down to the object
+    union = np.nanmin(lo[:, 0, 0]), np.nanmax(hi[:, 0, 0])
+    np.testing.assert_allclose(union, [0.1 / 0.6 - 1, 0.5 / 0.6 - 1], atol=1e-3)
+    assert np.nanmin(lo[:, 0, -1]) < -0.99
+
+
+def test_a_start_closer_than_every_demonstrated_start_reads_as_the_nearest(
+    near_approach: SBLM, kinematic_env: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """From 2 cm, closer to the object than any demonstration started, the networks read at
+    clock 0 a distance none of their rows held so early, and back the robot away first;
+    held to the start-ups the rows did hold, the robot backs away less and arrives sooner."""
+    off = copy.copy(near_approach)
+    off.start_range_ = None
+    plain, plain_reads = _start_reads(off, kinematic_env, 0.02, monkeypatch)
+    held, held_reads = _start_reads(near_approach, kinematic_env, 0.02, monkeypatch)
+    assert _beyond_start_ups(near_approach, plain_reads) > 20
+    assert _beyond_start_ups(near_approach, held_reads) == 0
+    assert held.goal_reached and plain.goal_reached
+    backed = [float(run.channel("distance")[:200].max()) - 0.02 for run in (plain, held)]
+    assert backed[1] < 0.5 * backed[0]
+    assert len(held) < len(plain)
+
+
+def test_a_start_among_the_demonstrated_ones_is_read_as_it_is(
+    near_approach: SBLM, kinematic_env: Any
+) -> None:
+    off = copy.copy(near_approach)
+    off.start_range_ = None
+    for distance in (0.15, 0.4, 0.095):  # 0.095: within the 1 cm goal tolerance of 0.1
+        start = {"distance": distance, "angle": 0.0}
+        a = near_approach.generate(kinematic_env, start=start, seed=0)
+        b = off.generate(kinematic_env, start=start, seed=0)
+        np.testing.assert_array_equal(np.asarray(a.commands), np.asarray(b.commands))
+
+
+def test_a_run_carried_on_at_speed_is_read_as_it_is(near_approach: SBLM) -> None:
+    reading = {"distance": 0.02, "angle": 0.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
+    commands = []
+    for carried in (None, np.array([2.0, 2.0])):
+        for model in (near_approach, copy.copy(near_approach)):
+            if model is not near_approach:
+                model.start_range_ = None
+            policy = model.policy({"distance": 0.0, "angle": 0.0})
+            if carried is not None:
+                policy.carry(carried)  # a complex behavior hands over at speed
+            commands.append([policy.step(reading).command.copy() for _ in range(30)])
+    from_rest, from_rest_off, at_speed, at_speed_off = (np.asarray(c) for c in commands)
+    assert not np.array_equal(from_rest, from_rest_off)
+    np.testing.assert_array_equal(at_speed, at_speed_off)
+
+
+def test_start_ranges_are_saved_and_grown(
+    half_and_grown: tuple[SBLM, SBLM],
+    saved_and_grown: Callable[[str], tuple[np.ndarray, np.ndarray]],
+) -> None:
+    before, after = saved_and_grown("start_range_")
+    grown = half_and_grown[1]
+    assert after.shape[0] == grown.primitives_.n_categories_
+    # an old primitive's network only gains rows: at every clock its range can only widen
+    kept = before.shape[0]
+    had = ~np.isnan(before[..., 0])
+    assert np.all(~np.isnan(after[:kept, ..., 0])[had])
+    assert np.all(after[:kept, ..., 0][had] <= before[..., 0][had])
+    assert np.all(after[:kept, ..., 1][had] >= before[..., 1][had])

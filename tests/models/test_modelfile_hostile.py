@@ -579,6 +579,37 @@ def input_range_1e300(c: Corpus) -> bytes:
 
 
 @case("SBLM")
+def start_range_low_above_high(c: Corpus) -> bytes:
+    starts = c.sblm.array("start_range").copy()
+    starts[..., 0] = starts[..., 1] + 1.0
+    return with_array(c.sblm, "start_range", npy(starts))
+
+
+@case("SBLM")
+def start_range_one_cycle_short(c: Corpus) -> bytes:
+    return with_array(c.sblm, "start_range", npy(c.sblm.array("start_range")[:, :, :-1]))
+
+
+@case("SBLM")
+def start_range_low_without_high(c: Corpus) -> bytes:
+    starts = c.sblm.array("start_range").copy()
+    starts[0, 0, -1, 1] = np.nan  # the clock's end always holds a row
+    return with_array(c.sblm, "start_range", npy(starts))
+
+
+@case("SBLM")
+def start_range_infinite(c: Corpus) -> bytes:
+    starts = c.sblm.array("start_range").copy()
+    starts[0, 0, -1, 0] = -np.inf
+    return with_array(c.sblm, "start_range", npy(starts))
+
+
+@case("SBLM")
+def start_range_1e300(c: Corpus) -> bytes:
+    return _scaled(c, "start_range", 1e300)
+
+
+@case("SBLM")
 def counts_beyond_int64(c: Corpus) -> bytes:
     counts = c.sblm.array("prim.counts").astype(np.uint64) + np.uint64(2**63)
     return with_array(c.sblm, "prim.counts", npy(counts))

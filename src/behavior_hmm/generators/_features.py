@@ -124,6 +124,64 @@ def grown_ranges(old: FloatArray, fresh: FloatArray, states: Any) -> FloatArray:
     return grown
 
 
+def start_ranges(
+    windows: FloatArray,
+    clock: FloatArray,
+    states: Sequence[int] | NDArray[np.integer[Any]],
+    n: int,
+    n_channels: int,
+    cycles: int,
+) -> FloatArray:
+    """The readings each of ``n`` primitives' networks was shown at each onset clock.
+
+    ``windows``: the training rows' sensor-window columns (normalized readings,
+    ``n_channels`` channels of equal windows, channel-major); ``clock``: their onset clock
+    column (``min(k, cycles) / cycles`` after ``k`` cycles); ``states``: each row's
+    primitive. Returns ``(n, n_channels, cycles + 1, 2)``: entry ``[p, c, k]`` is the
+    lowest (``0``) and highest (``1``) reading in channel ``c``'s windows among primitive
+    ``p``'s rows whose clock had counted at most ``k`` cycles (NaN where it has none), so
+    it widens with ``k`` and its last row is the primitive's whole range.
+
+    A start from rest closer to the goal than any demonstrated start is a reading the
+    networks met only late in a run: the approach's nearest start began 0.1 m off, and
+    at 4 cm its network, read at clock 0, backed the robot away first.
+    ``SBLM(input_range=True)`` clips such a start-up's windows to this range.
+    """
+    values = np.asarray(windows, dtype=np.float64)
+    ids = np.asarray(states, dtype=np.int64)
+    ticks = np.clip(np.rint(np.asarray(clock, dtype=np.float64) * cycles), 0, cycles)
+    at = (ids, ticks.astype(np.int64))
+    window = values.shape[1] // max(int(n_channels), 1)
+    out = np.full((int(n), int(n_channels), int(cycles) + 1, 2), np.nan)
+    for c in range(int(n_channels)):
+        part = values[:, c * window : (c + 1) * window]
+        lo = np.full((int(n), int(cycles) + 1), np.inf)
+        hi = np.full((int(n), int(cycles) + 1), -np.inf)
+        if part.shape[0]:
+            np.minimum.at(lo, at, part.min(axis=1))
+            np.maximum.at(hi, at, part.max(axis=1))
+        lo = np.minimum.accumulate(lo, axis=1)
+        hi = np.maximum.accumulate(hi, axis=1)
+        seen = np.isfinite(lo)
+        out[:, c, :, 0] = np.where(seen, lo, np.nan)
+        out[:, c, :, 1] = np.where(seen, hi, np.nan)
+    return out
+
+
+def grown_start_ranges(old: FloatArray, fresh: FloatArray, states: Any) -> FloatArray:
+    """``start_ranges`` after an update, as :func:`grown_ranges` grows ``input_ranges``:
+    ``fresh`` (the update's rows, every primitive of the grown model) for a new primitive,
+    the union of ``old`` and ``fresh`` for one with new rows, ``old`` for the rest."""
+    grown = np.array(fresh, dtype=np.float64)
+    kept = old.shape[0]
+    seen = np.zeros(grown.shape[0], dtype=bool)
+    seen[np.unique(np.asarray(states, dtype=np.int64))] = True
+    mine = seen[:kept, None, None]
+    grown[:kept, ..., 0] = np.where(mine, np.fmin(old[..., 0], grown[:kept, ..., 0]), old[..., 0])
+    grown[:kept, ..., 1] = np.where(mine, np.fmax(old[..., 1], grown[:kept, ..., 1]), old[..., 1])
+    return grown
+
+
 def shifted_windows(
     features: FloatArray, n_channels: int, window: int, sigma: float, rng: np.random.Generator
 ) -> FloatArray:

@@ -452,6 +452,28 @@ class SimplePolicy(GoalTracking, RateLimited):
             self._overall = np.array(
                 [[lo[c].min(), hi[c].max()] for c in self._window_columns], dtype=np.float64
             )
+        starts = getattr(model, "start_range_", None)
+        #: ``input_range``: what each primitive's rows held by each onset clock cycle
+        #: (``start_range_``, ``(P, C, K + 1, 2)``), their union over the primitives
+        #: ``(C, K + 1, 2)``, and each input's goal tolerance in normalized units (NaN:
+        #: never held by it: a channel without a tolerance, or one that wraps, whose
+        #: demonstrated starts go round the circle rather than end somewhere)
+        self._starts: FloatArray | None = None
+        if self._ranges is not None and starts is not None:
+            self._starts = starts
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a clock no row had: NaN
+                self._start_union = np.stack(
+                    [np.nanmin(starts[..., 0], axis=0), np.nanmax(starts[..., 1], axis=0)], -1
+                )
+            specs = [model.channel_spec(c) for c in self._channels]
+            self._start_tolerance = np.array(
+                [np.nan if sp.tolerance is None or sp.wraps else sp.tolerance for sp in specs]
+            ) * np.abs(self._gain)
+            if np.isnan(self._start_tolerance).all():
+                self._starts = None  # no input it could hold
+        #: whether this run's first primitive began at rest (None: not decided yet)
+        self._rest_start: bool | None = None
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
@@ -503,6 +525,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._features.reset()
         self._generator.reset()
         self._inside[:] = False
+        self._rest_start = None
         self._travel = np.zeros(len(self._channels))
         self._limit_reset()
         self._brake_reset()
@@ -899,6 +922,8 @@ class SimplePolicy(GoalTracking, RateLimited):
         changed = state != self._state
         if changed:
             self._support = self._outliers = 0
+        if self._rest_start is None:  # the run's first primitive: from rest, or carried on
+            self._rest_start = self._at_rest_command(self._last)
         self._state = state
         self._started = True
         row = self._features.row()
@@ -920,6 +945,8 @@ class SimplePolicy(GoalTracking, RateLimited):
             for j in np.flatnonzero(~self._inside):
                 cols = self._window_columns[j]  # the windows lead the row; rewritten each cycle
                 np.clip(row[cols], ranges[state, 0, cols], ranges[state, 1, cols], out=row[cols])
+            if self._starts is not None and self._rest_start:
+                self._start_up(row, x, state)
         y = self._generator.step(row, state)
         if self._recover:
             y = self._closed(category, now, self._returned(x, y))
@@ -927,6 +954,31 @@ class SimplePolicy(GoalTracking, RateLimited):
             y = np.where(self._held, self._rest_command / self._scale, y)
         y = self._features.commit(y)
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
+
+    def _start_up(self, row: FloatArray, x: FloatArray, state: int) -> None:
+        """``input_range`` at a start from rest: an input read more than its goal
+        tolerance outside every reading the primitives' rows held by the onset clock the
+        network reads (a start closer to the goal than any demonstrated one) has its
+        windows clipped to what the running primitive's rows held by then (with none by
+        then: all the primitives' rows). From the clock's end every row counts, and the
+        rule of the whole range above holds alone."""
+        starts, union = self._starts, self._start_union
+        assert starts is not None
+        cycles = starts.shape[2] - 1
+        k = int(np.clip(np.rint(row[-1] * cycles), 0, cycles))
+        if k >= cycles or state >= starts.shape[0]:
+            return
+        for j, tol in enumerate(self._start_tolerance.tolist()):
+            lo, hi = union[j, k]
+            if not tol >= 0.0 or not lo <= hi:  # no tolerance, or no row by this clock
+                continue
+            if lo - tol <= float(x[j]) <= hi + tol:
+                continue
+            own_lo, own_hi = starts[state, j, k]
+            if own_lo <= own_hi:  # NaN: the primitive had no row by this clock
+                lo, hi = own_lo, own_hi
+            cols = self._window_columns[j]
+            np.clip(row[cols], lo, hi, out=row[cols])
 
     def _alternative_start(
         self, category: int, near: bool, unreachable: UnreachableGoalError

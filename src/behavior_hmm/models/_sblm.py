@@ -35,9 +35,11 @@ from behavior_hmm.generators._features import (
     FeatureLayout,
     command_features,
     grown_ranges,
+    grown_start_ranges,
     input_ranges,
     onset_floors,
     shifted_windows,
+    start_ranges,
 )
 from behavior_hmm.hmm import BehaviorHMM
 from behavior_hmm.hmm._counting import Counting
@@ -79,6 +81,7 @@ LEARNED_ARRAYS: Final[tuple[tuple[str, str], ...]] = (
     ("start_envelope", "start_envelope_"),
     ("onset_floor", "onset_floor_"),
     ("input_range", "input_range_"),
+    ("start_range", "start_range_"),
 )
 
 #: Most channels a model file's chosen inputs may list (select_inputs' max_inputs is 3).
@@ -315,7 +318,14 @@ class SBLM(LearnedBehavior):
         was shown, instead of a value its network extrapolates from (a heading-correction
         primitive decoded there turned the robot to 88° off the object). Once inside, a
         deviation the rows never held (a bearing drifting off) stays visible to the
-        network. ``True`` (the default); ``False`` (thesis): the readings as they are.
+        network. In the first ``onset_clock`` cycles of a run from rest, an input whose
+        reading lies more than its channel's goal tolerance outside what any
+        primitive's rows held by that onset clock (``start_range_``: a start closer to
+        the goal than every demonstrated start) has its windows clipped to what the
+        running primitive's rows held by then: the approach from 4 cm, whose nearest
+        demonstrated start began 0.1 m off, reads as that start instead of backing the
+        robot away first. ``True`` (the default); ``False`` (thesis): the readings as
+        they are.
     rehearsal
         Most training rows of each primitive's generator the model keeps
         (``rehearsal_``, drawn at random; the window-noise copies are not kept) so that
@@ -377,6 +387,13 @@ class SBLM(LearnedBehavior):
         of each sensor-window input among its generator training rows (a primitive
         without rows: all rows'), the range ``input_range`` clips its network's windows
         to; None in a model file written before it was learned.
+    start_range_ : ndarray of shape (n_primitives, n_inputs, onset_clock + 1, 2) or None
+        Per primitive, input and onset clock cycle ``k``, the lowest (``0``) and highest
+        (``1``) normalized reading in that input's windows among the primitive's
+        generator training rows whose clock had counted at most ``k`` cycles (NaN where
+        it has none; ``generators._features.start_ranges``), what ``input_range`` clips
+        a start-up's windows to; None without a clock, or in a model file written before
+        it was learned.
     rehearsal_ : RehearsalRows or None
         The rows kept for updates (``rehearsal``): features, targets, primitive,
         demonstration and run of each, and how many rows each primitive was trained on
@@ -661,6 +678,9 @@ class SBLM(LearnedBehavior):
         self.input_range_: np.ndarray | None = input_ranges(
             features[:, : len(inputs) * int(prim.window)], gen_states, prim.n_categories_
         )
+        self.start_range_: np.ndarray | None = self._start_ranges(
+            features, gen_states, prim.n_categories_, layout
+        )
         common: dict[str, Any] = {
             "window": int(prim.window),
             "learning_rate": self.learning_rate,
@@ -867,6 +887,12 @@ class SBLM(LearnedBehavior):
                 features[:, : len(inputs) * int(prim.window)], gen_states, prim.n_categories_
             )
             ranges = grown_ranges(old_ranges, fresh, gen_states)
+        # the same for the start-ups' ranges (none in a file written before them)
+        old_starts = getattr(self, "start_range_", None)
+        fresh_starts = self._start_ranges(features, gen_states, prim.n_categories_, layout)
+        starts_grown = None
+        if old_starts is not None and fresh_starts is not None:
+            starts_grown = grown_start_ranges(old_starts, fresh_starts, gen_states)
         old = self.generators_
         gens = type(old).from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
@@ -923,6 +949,7 @@ class SBLM(LearnedBehavior):
         self.start_envelope_ = envelope
         self.onset_floor_ = floors
         self.input_range_ = ranges
+        self.start_range_ = starts_grown
         self.rehearsal_ = rehearsal
         # the old rows are not kept: the old radius, or the new rows' from the moved prototypes
         self.reach_radius_ = max(float(getattr(self, "reach_radius_", 0.0)), reach)
@@ -959,6 +986,23 @@ class SBLM(LearnedBehavior):
             cap=int(self.rehearsal),
             by_segment=self.generator_network == "elman",
             rng=rehearsal_rng(self.random_state, update),
+        )
+
+    def _start_ranges(
+        self, features: FloatArray, states: Any, n_primitives: int, layout: FeatureLayout
+    ) -> np.ndarray | None:
+        """``start_range_`` of generator rows ``features`` of primitives ``states`` (None
+        without an onset clock: the rows do not say how far into a run they lie)."""
+        if layout.clock <= 0:
+            return None
+        n_inputs = layout.n_channels
+        return start_ranges(
+            features[:, : n_inputs * layout.window],
+            features[:, -1],
+            states,
+            n_primitives,
+            n_inputs,
+            layout.clock,
         )
 
     def _grown_floors(
@@ -1382,7 +1426,30 @@ class SBLM(LearnedBehavior):
             if not np.all(ranges[:, 0] <= ranges[:, 1]):
                 raise ModelFileError("array 'input_range' has a low above its high")
             model.input_range_ = np.array(ranges, dtype=np.float64)
+        model.start_range_ = None  # files written before it was learned have none
+        if "start_range" in arrays:
+            model.start_range_ = _checked_start_range(arrays, model, len(inputs))
         return model
+
+
+def _checked_start_range(
+    arrays: Mapping[str, np.ndarray], model: SBLM, n_inputs: int
+) -> np.ndarray:
+    """A model file's ``start_range`` array, checked against the model it belongs to."""
+    starts = _modelfile.check_array(arrays, "start_range", ndim=4, finite=False)
+    clock = model.feature_layout(n_inputs, int(model.generators_.window)).clock
+    if clock <= 0 or starts.shape != (model.generators_.n_primitives_, n_inputs, clock + 1, 2):
+        raise ModelFileError(
+            "array 'start_range' must be primitives x inputs x the onset clock's cycles + 1 x 2"
+        )
+    unseen = np.isnan(starts)
+    if np.any(unseen[..., 0] != unseen[..., 1]) or np.isinf(starts).any():
+        raise ModelFileError("array 'start_range' has a low without its high, or an infinity")
+    if np.abs(np.where(unseen, 0.0, starts)).max(initial=0.0) > _modelfile.MAX_ABS_VALUE:
+        raise ModelFileError("array 'start_range' holds absurd values")
+    if np.any(starts[..., 0] > starts[..., 1]):  # NaN compares False
+        raise ModelFileError("array 'start_range' has a low above its high")
+    return np.array(starts, dtype=np.float64)
 
 
 def demonstrated_wheel_response(dataset: Dataset) -> np.ndarray | None:
