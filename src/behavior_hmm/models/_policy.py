@@ -472,7 +472,7 @@ class SimplePolicy(GoalTracking, RateLimited):
             ) * np.abs(self._gain)
             if np.isnan(self._start_tolerance).all():
                 self._starts = None  # no input it could hold
-        #: whether this run's first primitive began at rest (None: not decided yet)
+        #: whether this run began at rest with its onset clock at 0 (None: not decided yet)
         self._rest_start: bool | None = None
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
@@ -922,8 +922,10 @@ class SimplePolicy(GoalTracking, RateLimited):
         changed = state != self._state
         if changed:
             self._support = self._outliers = 0
-        if self._rest_start is None:  # the run's first primitive: from rest, or carried on
-            self._rest_start = self._at_rest_command(self._last)
+        if self._rest_start is None:  # the run's first primitive: a start from rest, or
+            # one carried on at speed or resumed where a run of it stopped (resume_onset)
+            started = self._features.cycles == 0
+            self._rest_start = started and self._at_rest_command(self._last)
         self._state = state
         self._started = True
         row = self._features.row()

@@ -172,7 +172,9 @@ DEPARTURES: Final[tuple[Departure, ...]] = (
         "input_range",
         {"SBLM": {"input_range": False}},
         "a run that starts beyond the demonstrations reads each input clipped to the range "
-        "its primitive's rows held, until the input has been inside all the rows' range",
+        "its primitive's rows held, until the input has been inside all the rows' range; "
+        "one from rest closer to the goal than every demonstrated start reads as the "
+        "nearest start-up its rows held",
     ),
     Departure(
         "observation_vigilance",

@@ -318,7 +318,8 @@ class SBLM(LearnedBehavior):
         was shown, instead of a value its network extrapolates from (a heading-correction
         primitive decoded there turned the robot to 88° off the object). Once inside, a
         deviation the rows never held (a bearing drifting off) stays visible to the
-        network. In the first ``onset_clock`` cycles of a run from rest, an input whose
+        network. In the first ``onset_clock`` cycles of a run from rest (not one carried
+        on at speed by a complex behavior, nor a resumed onset clock), an input whose
         reading lies more than its channel's goal tolerance outside what any
         primitive's rows held by that onset clock (``start_range_``: a start closer to
         the goal than every demonstrated start) has its windows clipped to what the
