@@ -228,6 +228,22 @@ def test_a_run_carried_on_at_speed_is_read_as_it_is(near_approach: SBLM) -> None
     np.testing.assert_array_equal(at_speed, at_speed_off)
 
 
+def test_a_resumed_onset_clock_is_read_as_it_is(near_approach: SBLM) -> None:
+    """A component a complex behavior resumes where a run of it stopped (2 cm short after
+    moving there) goes on as it was: only a run whose clock starts at 0 is held."""
+    reading = {"distance": 0.02, "angle": 0.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
+    runs = []
+    for held in (True, False):
+        model = copy.copy(near_approach)
+        if not held:
+            model.start_range_ = None
+        policy = model.policy({"distance": 0.0, "angle": 0.0})
+        policy.reset()
+        policy.resume_onset(5)  # early in the clock, where a fresh start would be held
+        runs.append(np.asarray([policy.step(reading).command.copy() for _ in range(30)]))
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
 def test_start_ranges_are_saved_and_grown(
     half_and_grown: tuple[SBLM, SBLM],
     saved_and_grown: Callable[[str], tuple[np.ndarray, np.ndarray]],
