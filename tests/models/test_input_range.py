@@ -257,3 +257,21 @@ def test_start_ranges_are_saved_and_grown(
     assert np.all(~np.isnan(after[:kept, ..., 0])[had])
     assert np.all(after[:kept, ..., 0][had] <= before[..., 0][had])
     assert np.all(after[:kept, ..., 1][had] >= before[..., 1][had])
+
+
+def test_only_a_start_beyond_the_start_ups_is_held(near_approach: SBLM) -> None:
+    """A run that started among the demonstrated starts reads what follows as it is, even
+    a reading none of the start-ups held by that clock (pushed to 2 cm in its first
+    cycles): only where the run began decides."""
+    moved = {"distance": 0.3, "angle": 0.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
+    pushed = dict(moved, distance=0.02)
+    runs = []
+    for held in (True, False):
+        model = copy.copy(near_approach)
+        if not held:
+            model.start_range_ = None
+        policy = model.policy({"distance": 0.0, "angle": 0.0})
+        runs.append(
+            np.asarray([policy.step(r).command.copy() for r in [moved] * 3 + [pushed] * 40])
+        )
+    np.testing.assert_array_equal(runs[0], runs[1])

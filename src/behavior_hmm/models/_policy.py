@@ -474,6 +474,9 @@ class SimplePolicy(GoalTracking, RateLimited):
                 self._starts = None  # no input it could hold
         #: whether this run began at rest with its onset clock at 0 (None: not decided yet)
         self._rest_start: bool | None = None
+        #: ``input_range``: the inputs this run's start read beyond every start-up the rows
+        #: held, still held to them (None: the start not read yet)
+        self._start_held: NDArray[np.bool_] | None = None
         self._x = np.zeros(len(self._channels))
         self._reading: Mapping[str, float] = {}
         learned = getattr(model, "command_rates_", None)
@@ -526,6 +529,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._generator.reset()
         self._inside[:] = False
         self._rest_start = None
+        self._start_held = None
         self._travel = np.zeros(len(self._channels))
         self._limit_reset()
         self._brake_reset()
@@ -958,23 +962,32 @@ class SimplePolicy(GoalTracking, RateLimited):
         return StepOutput(y * self._scale, category, novel, state, self.name, changed, False)
 
     def _start_up(self, row: FloatArray, x: FloatArray, state: int) -> None:
-        """``input_range`` at a start from rest: an input read more than its goal
-        tolerance outside every reading the primitives' rows held by the onset clock the
-        network reads (a start closer to the goal than any demonstrated one) has its
-        windows clipped to what the running primitive's rows held by then (with none by
-        then: all the primitives' rows). From the clock's end every row counts, and the
-        rule of the whole range above holds alone."""
+        """``input_range`` at a start from rest: an input whose first reading lies more
+        than its goal tolerance outside every reading the primitives' rows held by the
+        onset clock the network reads (a start closer to the goal than any demonstrated
+        one) has its windows clipped to what the running primitive's rows held by then
+        (with none by then: all the primitives' rows), until its reading is within the
+        tolerance of what they held by the clock read; from then on, and for an input
+        whose start lay among the demonstrated ones, the readings are read as they are (a
+        deviation from the start-ups stays visible). From the clock's end every row
+        counts, and the rule of the whole range above holds alone."""
         starts, union = self._starts, self._start_union
         assert starts is not None
         cycles = starts.shape[2] - 1
         k = int(np.clip(np.rint(row[-1] * cycles), 0, cycles))
-        if k >= cycles or state >= starts.shape[0]:
+        first = self._start_held is None
+        if first:
+            self._start_held = np.zeros(len(self._channels), dtype=bool)
+        held = self._start_held
+        assert held is not None
+        if k >= cycles or state >= starts.shape[0] or not (first or held.any()):
             return
         for j, tol in enumerate(self._start_tolerance.tolist()):
             lo, hi = union[j, k]
-            if not tol >= 0.0 or not lo <= hi:  # no tolerance, or no row by this clock
-                continue
-            if lo - tol <= float(x[j]) <= hi + tol:
+            if not (first or held[j]) or not tol >= 0.0 or not lo <= hi:
+                continue  # not held, no tolerance, or no row by this clock
+            held[j] = not lo - tol <= float(x[j]) <= hi + tol
+            if not held[j]:
                 continue
             own_lo, own_hi = starts[state, j, k]
             if own_lo <= own_hi:  # NaN: the primitive had no row by this clock

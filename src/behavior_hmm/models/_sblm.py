@@ -320,12 +320,13 @@ class SBLM(LearnedBehavior):
         deviation the rows never held (a bearing drifting off) stays visible to the
         network. In the first ``onset_clock`` cycles of a run from rest (not one carried
         on at speed by a complex behavior, nor a resumed onset clock), an input whose
-        reading lies more than its channel's goal tolerance outside what any
+        first reading lies more than its channel's goal tolerance outside what any
         primitive's rows held by that onset clock (``start_range_``: a start closer to
         the goal than every demonstrated start) has its windows clipped to what the
-        running primitive's rows held by then: the approach from 4 cm, whose nearest
-        demonstrated start began 0.1 m off, reads as that start instead of backing the
-        robot away first. ``True`` (the default); ``False`` (thesis): the readings as
+        running primitive's rows held by then, until its reading comes within the
+        tolerance of what they held: the approach from 4 cm, whose nearest demonstrated
+        start began 0.1 m off, reads as that start instead of backing the robot away
+        first. ``True`` (the default); ``False`` (thesis): the readings as
         they are.
     rehearsal
         Most training rows of each primitive's generator the model keeps
