@@ -5,8 +5,8 @@
 # from random starts drawn once with a fixed seed: turn 40 bearings in [-180, 180) deg at
 # 0.5 m, approach 40 distances in [0.1, 1.0) m, turn & approach 60 starts, bearing in
 # [-180, 180) deg and distance in [0, 1.0) m. Work files go to results/unseen-starts (or
-# $1); the table is written to docs/figures/unseen-starts/table.md. 3.2 min with 2 workers,
-# measured with the MuJoCo demonstrations already in the collection cache.
+# $1); the table is written to docs/figures/unseen-starts/table.md. 1.5 min with 2 workers
+# beside a test run, measured with the MuJoCo demonstrations already in the collection cache.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 work=${1:-results/unseen-starts}
