@@ -10,7 +10,6 @@ from behavior_hmm.generators._features import (
     FeatureLayout,
     OnlineFeatures,
     grown_ranges,
-    grown_start_ranges,
     input_ranges,
     onset_floors,
     start_ranges,
@@ -163,7 +162,7 @@ def test_start_ranges_widen_with_the_onset_clock() -> None:
 def test_grown_start_ranges_widen_only_primitives_with_new_rows() -> None:
     old = start_ranges(np.array([[0.2], [0.5]]), np.array([0.0, 1.0]), np.array([0, 1]), 2, 1, 2)
     rows, clock, states = np.array([[-0.4], [0.9]]), np.array([0.5, 0.0]), np.array([1, 2])
-    grown = grown_start_ranges(old, start_ranges(rows, clock, states, 3, 1, 2), states)
+    grown = grown_ranges(old, start_ranges(rows, clock, states, 3, 1, 2), states, side=-1)
     assert grown.shape == (3, 1, 3, 2)
     np.testing.assert_array_equal(grown[0], old[0])  # no new rows: as it was
     # primitive 1 had a row at the clock's end only; its new one came at cycle 1

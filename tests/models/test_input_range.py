@@ -15,10 +15,12 @@ from behavior_hmm.models import SBLM
 from behavior_hmm.teach import collect
 
 
-def _record_windows(model: SBLM, patch: pytest.MonkeyPatch) -> list[tuple[int, np.ndarray]]:
+def _record_windows(
+    model: SBLM, patch: pytest.MonkeyPatch, whole: bool = False
+) -> list[tuple[int, np.ndarray]]:
     """Record (primitive, sensor windows) of every generator step from now on (policies
-    made after this call)."""
-    n = len(model.inputs_) * int(model.generators_.window)
+    made after this call); ``whole``: the whole row the network reads (its clock last)."""
+    n = None if whole else len(model.inputs_) * int(model.generators_.window)
     seen: list[tuple[int, np.ndarray]] = []
     original = _motion.MotionGenerators.predict_one
 
@@ -136,17 +138,31 @@ def _start_reads(
     model: SBLM, env: Any, distance: float, monkeypatch: pytest.MonkeyPatch
 ) -> tuple[Any, list[tuple[int, np.ndarray]]]:
     """A run from rest at ``distance`` and the (primitive, row) its networks read."""
-    seen: list[tuple[int, np.ndarray]] = []
-    original = _motion.MotionGenerators.predict_one
-
-    def recording(self: Any, x: np.ndarray, primitive: int) -> np.ndarray:
-        seen.append((int(primitive), np.array(x)))
-        return original(self, x, primitive)
-
     with monkeypatch.context() as patch:
-        patch.setattr(_motion.MotionGenerators, "predict_one", recording)
+        seen = _record_windows(model, patch, whole=True)
         run = model.generate(env, start={"distance": distance, "angle": 0.0}, seed=0)
     return run, seen
+
+
+def _without_start_ranges(model: SBLM) -> SBLM:
+    """``model`` as a file written before ``start_range_`` was learned (the rule off)."""
+    off = copy.copy(model)
+    off.start_range_ = None
+    return off
+
+
+def _held_and_not(
+    model: SBLM, readings: list[dict[str, float]], prepare: Callable[[Any], Any] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The commands of a fresh policy fed ``readings``, with ``start_range_`` and without;
+    ``prepare`` is called on each policy first."""
+    runs = []
+    for m in (model, _without_start_ranges(model)):
+        policy = m.policy({"distance": 0.0, "angle": 0.0})
+        if prepare is not None:
+            prepare(policy)
+        runs.append(np.asarray([policy.step(r).command.copy() for r in readings]))
+    return runs[0], runs[1]
 
 
 def _beyond_start_ups(model: SBLM, reads: list[tuple[int, np.ndarray]]) -> int:
@@ -188,8 +204,7 @@ def test_a_start_closer_than_every_demonstrated_start_reads_as_the_nearest(
     """From 2 cm, closer to the object than any demonstration started, the networks read at
     clock 0 a distance none of their rows held so early, and back the robot away first;
     held to the start-ups the rows did hold, the robot backs away less and arrives sooner."""
-    off = copy.copy(near_approach)
-    off.start_range_ = None
+    off = _without_start_ranges(near_approach)
     plain, plain_reads = _start_reads(off, kinematic_env, 0.02, monkeypatch)
     held, held_reads = _start_reads(near_approach, kinematic_env, 0.02, monkeypatch)
     assert _beyond_start_ups(near_approach, plain_reads) > 20
@@ -203,8 +218,7 @@ def test_a_start_closer_than_every_demonstrated_start_reads_as_the_nearest(
 def test_a_start_among_the_demonstrated_ones_is_read_as_it_is(
     near_approach: SBLM, kinematic_env: Any
 ) -> None:
-    off = copy.copy(near_approach)
-    off.start_range_ = None
+    off = _without_start_ranges(near_approach)
     for distance in (0.15, 0.4, 0.095):  # 0.095: within the 1 cm goal tolerance of 0.1
         start = {"distance": distance, "angle": 0.0}
         a = near_approach.generate(kinematic_env, start=start, seed=0)
@@ -214,16 +228,11 @@ def test_a_start_among_the_demonstrated_ones_is_read_as_it_is(
 
 def test_a_run_carried_on_at_speed_is_read_as_it_is(near_approach: SBLM) -> None:
     reading = {"distance": 0.02, "angle": 0.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
-    commands = []
-    for carried in (None, np.array([2.0, 2.0])):
-        for model in (near_approach, copy.copy(near_approach)):
-            if model is not near_approach:
-                model.start_range_ = None
-            policy = model.policy({"distance": 0.0, "angle": 0.0})
-            if carried is not None:
-                policy.carry(carried)  # a complex behavior hands over at speed
-            commands.append([policy.step(reading).command.copy() for _ in range(30)])
-    from_rest, from_rest_off, at_speed, at_speed_off = (np.asarray(c) for c in commands)
+    from_rest, from_rest_off = _held_and_not(near_approach, [reading] * 30)
+    # a complex behavior hands over at speed
+    at_speed, at_speed_off = _held_and_not(
+        near_approach, [reading] * 30, lambda policy: policy.carry(np.array([2.0, 2.0]))
+    )
     assert not np.array_equal(from_rest, from_rest_off)
     np.testing.assert_array_equal(at_speed, at_speed_off)
 
@@ -232,16 +241,12 @@ def test_a_resumed_onset_clock_is_read_as_it_is(near_approach: SBLM) -> None:
     """A component a complex behavior resumes where a run of it stopped (2 cm short after
     moving there) goes on as it was: only a run whose clock starts at 0 is held."""
     reading = {"distance": 0.02, "angle": 0.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
-    runs = []
-    for held in (True, False):
-        model = copy.copy(near_approach)
-        if not held:
-            model.start_range_ = None
-        policy = model.policy({"distance": 0.0, "angle": 0.0})
+
+    def resumed(policy: Any) -> None:
         policy.reset()
         policy.resume_onset(5)  # early in the clock, where a fresh start would be held
-        runs.append(np.asarray([policy.step(reading).command.copy() for _ in range(30)]))
-    np.testing.assert_array_equal(runs[0], runs[1])
+
+    np.testing.assert_array_equal(*_held_and_not(near_approach, [reading] * 30, resumed))
 
 
 def test_start_ranges_are_saved_and_grown(
@@ -265,13 +270,4 @@ def test_only_a_start_beyond_the_start_ups_is_held(near_approach: SBLM) -> None:
     cycles): only where the run began decides."""
     moved = {"distance": 0.3, "angle": 0.0, "linear_velocity": 0.0, "angular_velocity": 0.0}
     pushed = dict(moved, distance=0.02)
-    runs = []
-    for held in (True, False):
-        model = copy.copy(near_approach)
-        if not held:
-            model.start_range_ = None
-        policy = model.policy({"distance": 0.0, "angle": 0.0})
-        runs.append(
-            np.asarray([policy.step(r).command.copy() for r in [moved] * 3 + [pushed] * 40])
-        )
-    np.testing.assert_array_equal(runs[0], runs[1])
+    np.testing.assert_array_equal(*_held_and_not(near_approach, [moved] * 3 + [pushed] * 40))

@@ -110,17 +110,21 @@ def input_ranges(
     return ranges
 
 
-def grown_ranges(old: FloatArray, fresh: FloatArray, states: Any) -> FloatArray:
-    """``input_ranges`` after an update: ``fresh`` (the new rows' ranges, every primitive
-    of the grown model) for a new primitive, the union of ``old`` and ``fresh`` for one with
-    new rows (its network is fine-tuned on them), ``old`` for the rest."""
+def grown_ranges(old: FloatArray, fresh: FloatArray, states: Any, side: int = 1) -> FloatArray:
+    """``input_ranges`` (or ``start_ranges``, ``side=-1``) after an update: ``fresh`` (the
+    new rows' ranges, every primitive of the grown model) for a new primitive, the union of
+    ``old`` and ``fresh`` for one with new rows (its network is fine-tuned on them), ``old``
+    for the rest. ``side``: the axis holding the lowest (0) and highest (1) value; where one
+    of ``old`` and ``fresh`` is NaN (no row), the union is the other."""
     grown = np.array(fresh, dtype=np.float64)
     kept = old.shape[0]
     seen = np.zeros(grown.shape[0], dtype=bool)
     seen[np.unique(np.asarray(states, dtype=np.int64))] = True
-    mine = seen[:kept, None]
-    grown[:kept, 0] = np.where(mine, np.minimum(old[:, 0], grown[:kept, 0]), old[:, 0])
-    grown[:kept, 1] = np.where(mine, np.maximum(old[:, 1], grown[:kept, 1]), old[:, 1])
+    mine = seen[:kept].reshape((kept,) + (1,) * (old.ndim - 2))
+    lo, hi = np.take(old, 0, axis=side), np.take(old, 1, axis=side)
+    new = np.moveaxis(grown[:kept], side, 0)  # a view: written into ``grown``
+    new[0] = np.where(mine, np.fmin(lo, new[0]), lo)
+    new[1] = np.where(mine, np.fmax(hi, new[1]), hi)
     return grown
 
 
@@ -145,7 +149,8 @@ def start_ranges(
     A start from rest closer to the goal than any demonstrated start is a reading the
     networks met only late in a run: the approach's nearest start began 0.1 m off, and
     at 4 cm its network, read at clock 0, backed the robot away first.
-    ``SBLM(input_range=True)`` clips such a start-up's windows to this range.
+    ``SBLM(input_range=True)`` clips such a start-up's windows to this range; an update
+    grows it with :func:`grown_ranges` (``side=-1``).
     """
     values = np.asarray(windows, dtype=np.float64)
     ids = np.asarray(states, dtype=np.int64)
@@ -166,20 +171,6 @@ def start_ranges(
         out[:, c, :, 0] = np.where(seen, lo, np.nan)
         out[:, c, :, 1] = np.where(seen, hi, np.nan)
     return out
-
-
-def grown_start_ranges(old: FloatArray, fresh: FloatArray, states: Any) -> FloatArray:
-    """``start_ranges`` after an update, as :func:`grown_ranges` grows ``input_ranges``:
-    ``fresh`` (the update's rows, every primitive of the grown model) for a new primitive,
-    the union of ``old`` and ``fresh`` for one with new rows, ``old`` for the rest."""
-    grown = np.array(fresh, dtype=np.float64)
-    kept = old.shape[0]
-    seen = np.zeros(grown.shape[0], dtype=bool)
-    seen[np.unique(np.asarray(states, dtype=np.int64))] = True
-    mine = seen[:kept, None, None]
-    grown[:kept, ..., 0] = np.where(mine, np.fmin(old[..., 0], grown[:kept, ..., 0]), old[..., 0])
-    grown[:kept, ..., 1] = np.where(mine, np.fmax(old[..., 1], grown[:kept, ..., 1]), old[..., 1])
-    return grown
 
 
 def shifted_windows(

@@ -461,7 +461,7 @@ class SimplePolicy(GoalTracking, RateLimited):
         self._starts: FloatArray | None = None
         if self._ranges is not None and starts is not None:
             self._starts = starts
-            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)  # a clock no row had: NaN
                 self._start_union = np.stack(
                     [np.nanmin(starts[..., 0], axis=0), np.nanmax(starts[..., 1], axis=0)], -1

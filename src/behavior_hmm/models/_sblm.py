@@ -35,7 +35,6 @@ from behavior_hmm.generators._features import (
     FeatureLayout,
     command_features,
     grown_ranges,
-    grown_start_ranges,
     input_ranges,
     onset_floors,
     shifted_windows,
@@ -891,10 +890,11 @@ class SBLM(LearnedBehavior):
             ranges = grown_ranges(old_ranges, fresh, gen_states)
         # the same for the start-ups' ranges (none in a file written before them)
         old_starts = getattr(self, "start_range_", None)
-        fresh_starts = self._start_ranges(features, gen_states, prim.n_categories_, layout)
         starts_grown = None
-        if old_starts is not None and fresh_starts is not None:
-            starts_grown = grown_start_ranges(old_starts, fresh_starts, gen_states)
+        if old_starts is not None:
+            fresh_starts = self._start_ranges(features, gen_states, prim.n_categories_, layout)
+            if fresh_starts is not None:
+                starts_grown = grown_ranges(old_starts, fresh_starts, gen_states, side=-1)
         old = self.generators_
         gens = type(old).from_arrays(old.to_arrays(), **old.get_params())
         updates = list(getattr(self, "updates_", []))
