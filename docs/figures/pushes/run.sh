@@ -11,12 +11,7 @@ work=${1:-results/pushes}
 workers=${BEHAVIOR_HMM_WORKERS:-2}
 mkdir -p "$work"
 cd "$work"
-behavior-hmm collect turn -o turn.parquet
-behavior-hmm collect approach -o approach.parquet
-behavior-hmm collect turn-approach -o ta.parquet
-behavior-hmm train simple turn.parquet --inputs angle -o turn.bhmm
-behavior-hmm train simple approach.parquet --inputs distance,angle -o approach.bhmm
-behavior-hmm train complex ta.parquet --component turn.bhmm --component approach.bhmm -o ta.bhmm
+bash "$here/../default-models.sh"
 for model in turn approach ta; do
   for seed in 0 1 2; do
     behavior-hmm evaluate "$model.bhmm" --push at=0.5,angle=20 --seed "$seed" \

@@ -13,12 +13,7 @@ work=${1:-results/unseen-starts}
 workers=${BEHAVIOR_HMM_WORKERS:-2}
 mkdir -p "$work"
 cd "$work"
-behavior-hmm collect turn -o turn.parquet
-behavior-hmm collect approach -o approach.parquet
-behavior-hmm collect turn-approach -o ta.parquet
-behavior-hmm train simple turn.parquet --inputs angle -o turn.bhmm
-behavior-hmm train simple approach.parquet --inputs distance,angle -o approach.bhmm
-behavior-hmm train complex ta.parquet --component turn.bhmm --component approach.bhmm -o ta.bhmm
+bash "$here/../default-models.sh"
 python - <<'PY'
 import csv
 
