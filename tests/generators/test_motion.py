@@ -351,9 +351,10 @@ _VALID = (
 
 
 def test_shared_init_helps_primitives_that_have_few_rows(rng: np.random.Generator) -> None:
-    """Eight primitives of one map, 12 rows each: every network that starts from the
-    network trained on all 96 rows predicts new inputs better than one that starts from
-    its own draw; the fit is deterministic, and an unknown init is refused."""
+    """Eight primitives of one map, 12 rows each: the networks that start from the
+    network trained on all 96 rows predict new inputs better than those that start from
+    their own draws (on average by a fifth, and none more than 5 % worse than its own draw's); the
+    fit is deterministic, and an unknown init is refused."""
     a = rng.normal(0, 0.6, (10, 2))
     x = rng.uniform(-1, 1, (96, 10))
     y = 0.5 * np.tanh(x @ a)
@@ -368,7 +369,12 @@ def test_shared_init_helps_primitives_that_have_few_rows(rng: np.random.Generato
             float(np.sqrt(np.mean((model.predict(x_new, np.full(400, p)) - y_new) ** 2)))
             for p in range(8)
         ]
-    assert all(s < r for s, r in zip(errors["shared"], errors["random"], strict=True))
+    # the shared start is trained for as many updates as one primitive's network makes
+    # (shared_epochs), so a network may end level with its own draw's, never far behind
+    better = sum(s < r for s, r in zip(errors["shared"], errors["random"], strict=True))
+    assert better >= 6
+    assert np.mean(errors["shared"]) < 0.8 * np.mean(errors["random"])
+    assert all(s < 1.05 * r for s, r in zip(errors["shared"], errors["random"], strict=True))
     again = MotionGenerators(**params, init="shared").fit(x, y, prim)
     first = MotionGenerators(**params, init="shared").fit(x, y, prim)
     for w1, w2 in zip(first.coefs_, again.coefs_, strict=True):
@@ -376,3 +382,32 @@ def test_shared_init_helps_primitives_that_have_few_rows(rng: np.random.Generato
     assert first.get_params()["init"] == "shared"
     with pytest.raises(ConfigError, match="init must be one of random, shared"):
         MotionGenerators(init="pretrained").fit(x, y, prim)
+
+
+def test_shared_start_trains_as_many_updates_as_the_largest_primitive(
+    rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The shared network makes as many updates as the primitive of most rows: 40 epochs
+    over 50 rows (40 train) in batches of 4 are 400 updates; 200 rows (160 train) take 40
+    a pass, so it trains 10 epochs, then the primitives their 40."""
+    from behavior_hmm.generators import _motion
+
+    assert _motion.shared_epochs(40, 4, 160, 30, 0.2) == 6
+    assert _motion.shared_epochs(40, 4, 24, 30, 0.2) == 40  # never more than ``epochs``
+    assert _motion.shared_epochs(40, 4, 10_000, 2, 0.2) == 1  # at least one pass
+    seen: list[tuple[int, int]] = []
+    real = _motion.train_stack
+
+    def spy(theta0, *args, epochs, **kwargs):  # type: ignore[no-untyped-def]
+        seen.append((theta0.shape[0], epochs))
+        return real(theta0, *args, epochs=epochs, **kwargs)
+
+    monkeypatch.setattr(_motion, "train_stack", spy)
+    x = rng.uniform(-1, 1, (200, 10))
+    y = 0.3 * np.tanh(x[:, :2])
+    prim = np.repeat(np.arange(5), [30, 20, 50, 50, 50])  # largest: 50 rows, 40 train
+    MotionGenerators(epochs=40, batch_size=4, init="shared").fit(x, y, prim)
+    assert seen == [(1, 40 * 10 // 40), (5, 40)]
+    seen.clear()
+    MotionGenerators(epochs=40, batch_size=4).fit(x, y, prim)
+    assert seen == [(5, 40)]

@@ -5,6 +5,10 @@ seed, so every repeat does identical work. ``demonstrations_curve`` times the tu
 trained on ×1, ×2, ×4 and ×8 the default grid of demonstrations (the same angle range
 sampled k times as densely, collected on the kinematic simulator), one fit per point.
 
+``options`` times the turn and approach SBLMs with the options that learn from few
+demonstrations (``mirror``, ``generator_init="shared"``, both) beside the default preset's
+fit in the same run: medians of the same repeats and each one's ratio over the default's.
+
 ``cobart_kernel`` names CobART's episode loops: ``"numba"`` with the ``fast`` extra, else
 ``"numpy"``. With numba the turn & approach CBLM is also timed on the numpy loops in the
 same run (``train_complex_numpy_s_median``, ``complex_numpy_over_numba``): the same model
@@ -24,6 +28,13 @@ from behavior_hmm.cobart._compiled import cobart_kernel, set_kernel
 
 #: Multiples of the default turn grid in the curve.
 CURVE_FACTORS = (1, 2, 4, 8)
+#: The SBLM options ``options`` times, by name: parameters over the default preset.
+OPTIONS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "mirror": {"mirror": True},
+    "shared": {"generator_init": "shared"},
+    "mirror+shared": {"mirror": True, "generator_init": "shared"},
+}
 
 
 def _median_time(fit: Any, repeats: int) -> float:
@@ -70,6 +81,40 @@ def demonstrations_curve(factors: tuple[int, ...] = CURVE_FACTORS) -> list[dict[
     return rows
 
 
+def option_times(
+    tasks: dict[str, tuple[Any, tuple[str, ...]]], repeats: int
+) -> dict[str, dict[str, float]]:
+    """SBLM training time with each of :data:`OPTIONS`, per task.
+
+    Parameters
+    ----------
+    tasks
+        Task name → (demonstrations, input channels).
+    repeats
+        Fits per option; the median is reported.
+
+    Returns
+    -------
+    dict
+        Per task: ``"<option>_s"`` (median s) for every option and ``"<option>_over_default"``
+        (that median over the default preset's, measured in the same run) for the others.
+    """
+    from behavior_hmm.models import SBLM
+
+    out: dict[str, dict[str, float]] = {}
+    for task, (data, inputs) in tasks.items():
+        row: dict[str, float] = {}
+        for name, extra in OPTIONS.items():
+            row[f"{name}_s"] = _median_time(
+                lambda e=extra, i=inputs, d=data: SBLM(inputs=i, **e).fit(d), repeats
+            )
+        for name in OPTIONS:
+            if name != "default":
+                row[f"{name}_over_default"] = row[f"{name}_s"] / row["default_s"]
+        out[task] = row
+    return out
+
+
 def run(quick: bool = False) -> dict[str, Any]:
     from behavior_hmm.models import CBLM, SBLM
 
@@ -105,6 +150,9 @@ def run(quick: bool = False) -> dict[str, Any]:
         results["train_complex_numpy_s_median"] = numpy_s
         results["complex_numpy_over_numba"] = numpy_s / results["train_complex_s_median"]
     results["complex_samples"] = int(complex_data.n_samples)
+    results["options"] = option_times(
+        {"turn": (turn, ("angle",)), "approach": (approach, ("distance", "angle"))}, repeats
+    )
     results["demonstrations_curve"] = demonstrations_curve(
         CURVE_FACTORS[:2] if quick else CURVE_FACTORS
     )

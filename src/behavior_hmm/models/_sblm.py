@@ -182,10 +182,11 @@ class SBLM(LearnedBehavior):
     generator_init
         Where the feed-forward generators start: ``"random"`` (default, thesis) or
         ``"shared"``, the weights of one network first trained on every primitive's
-        rows, which each primitive's network then fine-tunes on its own
+        rows (for as many updates as the largest primitive's network makes), which each
+        primitive's network then fine-tunes on its own
         (:class:`~behavior_hmm.generators.MotionGenerators` ``init``). It helps where
-        the demonstrations are few: over 5 kinematic seeds, approach from a quarter of
-        its grid scores 92.5 % against 88.5 % (docs/results.md, "Data efficiency").
+        the demonstrations are few: over 15 kinematic seeds, turn from a quarter of its
+        grid scores 95.8 % against 93.7 % (docs/results.md, "Data efficiency").
     generator_output
         ``"command"``: each network outputs the normalized wheel commands (thesis);
         ``"delta"``: it outputs the change of the commands since the last cycle, in
