@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from hypothesis import strategies as st
 from numpy.typing import NDArray
@@ -117,3 +119,12 @@ def reference_fit(
             labels.append(k)
             last = k
     return labels, protos, counts
+
+
+def assert_same_bits(a: tuple[Any, ...], b: tuple[Any, ...]) -> None:
+    """Every array of ``a`` equals its partner in ``b`` in dtype, values and bits (signed
+    zeros included)."""
+    for u, v in zip(a, b, strict=True):
+        assert u.dtype == v.dtype
+        np.testing.assert_array_equal(u, v, strict=True)
+        assert u.tobytes() == v.tobytes()

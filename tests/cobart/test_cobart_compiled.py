@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from cobart_testing import assert_same_bits as _same
 from cobart_testing import episodes, params, turn_dataset
 from hypothesis import HealthCheck, assume, given, settings
 
@@ -36,13 +37,6 @@ def _run(kernel: str, x: np.ndarray, lengths: list[int], kw: dict[str, Any]) -> 
         model = CobART(**kw).fit(x[:split], lengths[:half]).partial_fit(x[split:], lengths[half:])
     cat = model.categorize(x, lengths)
     return model.labels_, model.prototypes_, model.counts_, cat.labels, cat.scores
-
-
-def _same(a: tuple[Any, ...], b: tuple[Any, ...]) -> None:
-    for u, v in zip(a, b, strict=True):
-        assert u.dtype == v.dtype
-        np.testing.assert_array_equal(u, v, strict=True)
-        assert u.tobytes() == v.tobytes()  # to the bit, signed zeros included
 
 
 @pytest.mark.usefixtures("both")

@@ -22,7 +22,7 @@ path in the offline and in the live categorizer (bit-identical results).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -41,6 +41,7 @@ from behavior_hmm.cobart._exact import (
 
 if TYPE_CHECKING:
     from behavior_hmm.cobart._index import PrototypeIndex
+    from behavior_hmm.cobart._reference import ReferenceScreen
 
 FloatArray = NDArray[np.float64]
 
@@ -335,6 +336,12 @@ def fit_episode(
     z, s, v = zaug[:k_cnt], eng.s[:k_cnt], eng.v[:k_cnt]
     groups, zmax, margin = eng.groups, eng.zmax, eng.margin
     append = labels.append
+    from behavior_hmm.cobart._reference import REFERENCE_MIN_CATEGORIES, ReferenceScreen, best_of
+
+    # from REFERENCE_MIN_CATEGORIES on, a step scores only the categories that could win
+    # (module _reference): the same winners
+    reference = ReferenceScreen(gs, wts, groups)
+    k = -1
     for t in range(wt.shape[0]):
         if t == 0:
             np.copyto(pt, wt[0])
@@ -343,9 +350,18 @@ def fit_episode(
         if k_cnt:
             np.multiply(gm2, pt_col, out=top)
             np.dot(pt, top, out=pn2)
-            np.dot(z, paug, out=s)
-            clipped_mismatch(s, wts, out=v)
-            k, miss = refine(v, int(v.argmin()), margin(), z, pt, groups)
+            screened = k_cnt >= REFERENCE_MIN_CATEGORIES
+            found = reference.candidates(k, z, pt) if screened else None
+            if found is not None:
+                ids, upper = found
+                k, miss = best_of(ids, zaug, paug, wts, margin(), pt, groups, (k, upper))
+            else:
+                np.dot(z, paug, out=s)
+                clipped_mismatch(s, wts, out=v)
+                mg = margin()
+                k, miss = refine(v, int(v.argmin()), mg, z, pt, groups)
+                if screened:
+                    reference.set_reference(pt, v, mg)
             score = score_of(miss)
         else:
             k = 0
@@ -372,6 +388,7 @@ def fit_episode(
             rows = eng.rows
             z, s, v = zaug[:k_cnt], eng.s[:k_cnt], eng.v[:k_cnt]
             np.multiply(rows[k][4], oma, out=zl)
+        reference.moved(k)
         append(k)
 
 
@@ -445,6 +462,24 @@ class Predictor:
         margin = margin_of(self.pn2.tolist(), *self._margin_args)
         return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 
+    def _screened(self, reference: ReferenceScreen, prev: int) -> tuple[int, float]:
+        """:meth:`best` scoring only the categories ``reference`` says could win
+        (``prev``: the previous step's winner), or every one, then the new reference."""
+        from behavior_hmm.cobart._reference import best_of
+
+        pt = self.pt
+        margin = margin_of(self.pn2.tolist(), *self._margin_args)
+        found = reference.candidates(prev, self.z, pt)
+        if found is not None:
+            ids, upper = found
+            return best_of(
+                ids, self.zaug, self.paug, self.wts, margin, pt, self.groups, (prev, upper)
+            )
+        v = self.screen()
+        won = refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
+        reference.set_reference(pt, v, margin)
+        return won
+
     def compiled_search(self, kern: compiled.Kernels) -> compiled.CompiledPredictor:
         """The compiled kernels' view of these categories (their tree), built once."""
         if self._compiled is None:
@@ -466,7 +501,15 @@ class Predictor:
             return
         awt = wt * self.a
         pt, pt_col, omaz = self.pt, self.pt_col, self.omaz_rows
-        top, pn2, gm2, best = self.top, self.pn2, self.gm2, self.best
+        top, pn2, gm2 = self.top, self.pn2, self.gm2
+        from behavior_hmm.cobart._reference import REFERENCE_MIN_CATEGORIES, ReferenceScreen
+
+        if self.index is None and self.K >= REFERENCE_MIN_CATEGORIES:
+            # the same winners, scoring a few categories a step (module _reference)
+            reference = ReferenceScreen(self.gs, self.wts, self.groups)
+            best: Callable[[int], tuple[int, float]] = lambda prev: self._screened(reference, prev)  # noqa: E731
+        else:
+            best = lambda prev: self.best()  # noqa: E731
         k = -1
         for t in range(wt.shape[0]):
             if k < 0:
@@ -475,6 +518,6 @@ class Predictor:
                 np.add(awt[t], omaz[k], out=pt)
             np.multiply(gm2, pt_col, out=top)
             np.dot(pt, top, out=pn2)
-            k, miss = best()
+            k, miss = best(k)
             labels[offset + t] = k
             scores[offset + t] = score_of(miss)
