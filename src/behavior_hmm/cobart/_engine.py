@@ -22,6 +22,7 @@ path in the offline and in the live categorizer (bit-identical results).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -462,6 +463,10 @@ class Predictor:
         margin = margin_of(self.pn2.tolist(), *self._margin_args)
         return refine(v, int(v.argmin()), margin, self.z, pt, self.groups)
 
+    def _scanned(self, prev: int) -> tuple[int, float]:
+        """:meth:`best` (``prev``, the previous step's winner, is not needed)."""
+        return self.best()
+
     def _screened(self, reference: ReferenceScreen, prev: int) -> tuple[int, float]:
         """:meth:`best` scoring only the categories ``reference`` says could win
         (``prev``: the previous step's winner), or every one, then the new reference."""
@@ -504,12 +509,12 @@ class Predictor:
         top, pn2, gm2 = self.top, self.pn2, self.gm2
         from behavior_hmm.cobart._reference import REFERENCE_MIN_CATEGORIES, ReferenceScreen
 
+        best: Callable[[int], tuple[int, float]] = self._scanned
         if self.index is None and self.K >= REFERENCE_MIN_CATEGORIES:
             # the same winners, scoring a few categories a step (module _reference)
-            reference = ReferenceScreen(self.gs, self.wts, self.groups)
-            best: Callable[[int], tuple[int, float]] = lambda prev: self._screened(reference, prev)  # noqa: E731
-        else:
-            best = lambda prev: self.best()  # noqa: E731
+            best = functools.partial(
+                self._screened, ReferenceScreen(self.gs, self.wts, self.groups)
+            )
         k = -1
         for t in range(wt.shape[0]):
             if k < 0:
