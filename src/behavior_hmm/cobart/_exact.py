@@ -152,6 +152,7 @@ def refine(
     pt: FloatArray,
     groups: Groups,
     ids: IntArray | None = None,
+    known: tuple[int, float] | None = None,
 ) -> tuple[int, float]:
     """The exact winner among screened mismatches ``v`` and its exact mismatch.
 
@@ -173,6 +174,9 @@ def refine(
     ids
         Category index of each scored row (``None``: the row number), for the tie rule:
         among equal exact mismatches the lowest category index wins.
+    known
+        A category and its exact mismatch for ``pt``, already formed by the caller: not
+        formed again when that category alone is within reach.
 
     Returns
     -------
@@ -180,7 +184,10 @@ def refine(
     """
     reach = float(v[k]) + 2.0 * margin
     if np.count_nonzero(v <= reach) == 1:  # almost always: the screen's winner alone
-        return (k if ids is None else int(ids[k])), exact_mismatch(z[k], pt, groups)
+        cat = k if ids is None else int(ids[k])
+        if known is not None and known[0] == cat:
+            return known
+        return cat, exact_mismatch(z[k], pt, groups)
     best_id, best = -1, math.inf
     for i in np.flatnonzero(v <= reach).tolist():
         r = exact_mismatch(z[i], pt, groups)

@@ -120,12 +120,8 @@ def best_of(
     known: tuple[int, float],
 ) -> tuple[int, float]:
     """The exact winner among categories ``ids`` (rows of ``zaug``) for the query ``paug``
-    of ``pt``, and its exact mismatch: one screen of their rows, then :func:`refine`.
-    ``known``: a category and its exact mismatch at ``pt``, not formed again when it
-    alone is within reach of the screen's least."""
+    of ``pt``, and its exact mismatch: one screen of their rows, then :func:`refine`
+    (``known``: the previous winner and its exact mismatch at ``pt``)."""
     rows = zaug.take(ids, axis=0)
     v = clipped_mismatch(rows @ paug, wts)
-    i = int(v.argmin())
-    if int(ids[i]) == known[0] and np.count_nonzero(v <= float(v[i]) + 2.0 * margin) == 1:
-        return known  # refine's own answer: the same category, the same exact mismatch
-    return refine(v, i, margin, rows, pt, groups, ids)
+    return refine(v, int(v.argmin()), margin, rows, pt, groups, ids, known)
